@@ -1,0 +1,1 @@
+"""vadsim: simulator and diagnosis toolkit for vibration-assisted drilling tools."""
