@@ -1,0 +1,213 @@
+/// @file bindings.cpp
+/// @brief The whole Python binding of the core, in one place. Integration releases the GIL so
+/// that Python threads run simulations in parallel; results come back as numpy arrays that
+/// view the C++ result (no copy).
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "vadsim/integrator.hpp"
+
+namespace py = pybind11;
+using namespace vadsim;
+
+namespace {
+
+Modes modes_from(const std::vector<int>& m) {
+  if (m.size() != kSurfaces) throw std::invalid_argument("modes must have 5 entries");
+  Modes out{};
+  for (int s = 0; s < kSurfaces; ++s) {
+    if (m[s] < 0 || m[s] > 2) throw std::invalid_argument("a contact mode is 0, 1 or 2");
+    out[s] = static_cast<ContactMode>(m[s]);
+  }
+  return out;
+}
+
+template <typename T, typename F>
+py::array_t<T> event_column(const RunResult& r, F get) {
+  py::array_t<T> a(static_cast<py::ssize_t>(r.events.size()));
+  auto m = a.template mutable_unchecked<1>();
+  for (size_t i = 0; i < r.events.size(); ++i) m(static_cast<py::ssize_t>(i)) = get(r.events[i]);
+  return a;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "vadsim C++ core: the 7-DOF vibro-impact model integrated by CVODE";
+  m.attr("N_DOF") = kDof;
+  m.attr("N_SURFACES") = kSurfaces;
+
+  py::register_exception<SolverError>(m, "SolverError", PyExc_RuntimeError);
+
+  py::enum_<ContactLawKind>(m, "ContactLawKind")
+      .value("KelvinVoigt", ContactLawKind::KelvinVoigt)
+      .value("KelvinVoigtNoTension", ContactLawKind::KelvinVoigtNoTension)
+      .value("HuntCrossley", ContactLawKind::HuntCrossley);
+  py::enum_<Method>(m, "Method").value("BDF", Method::BDF).value("Adams", Method::Adams);
+  py::enum_<Record>(m, "Record")
+      .value("None_", Record::None)
+      .value("Window", Record::Window)
+      .value("All", Record::All);
+
+  auto params = py::class_<Params>(m, "Params", "Table 2.1 parameters plus l0, wob, law options");
+  params.def(py::init<>())
+      .def_readwrite("law", &Params::law)
+      .def("validate", &Params::validate)
+      .def("gap", &Params::gap)
+      .def("excitation_hz", &Params::excitation_hz, py::arg("flow_gpm"))
+      .def("get", [](const Params& p, const std::string& n) { return get_param(p, n); })
+      .def("set", [](Params& p, const std::string& n, double v) { set_param(p, n, v); })
+      .def(py::pickle(
+          [](const Params& p) {
+            py::dict d;
+            for (const auto& info : param_table()) d[info.name] = p.*info.member;
+            d["law"] = static_cast<int>(p.law);
+            return d;
+          },
+          [](const py::dict& d) {
+            Params p;
+            for (const auto& info : param_table()) p.*info.member = d[info.name].cast<double>();
+            p.law = static_cast<ContactLawKind>(d["law"].cast<int>());
+            return p;
+          }));
+  for (const auto& info : param_table()) {
+    auto member = info.member;
+    params.def_property(
+        info.name, [member](const Params& p) { return p.*member; },
+        [member](Params& p, double v) { p.*member = v; });
+  }
+  m.def("param_table", [] {
+    py::list out;
+    for (const auto& info : param_table()) {
+      const char* rule = info.rule == ParamInfo::Rule::Positive      ? "positive"
+                         : info.rule == ParamInfo::Rule::NonNegative ? "non-negative"
+                         : info.rule == ParamInfo::Rule::Exponent    ? "exponent"
+                                                                     : "finite";
+      out.append(py::make_tuple(info.name, info.unit, info.meaning, rule));
+    }
+    return out;
+  });
+
+  py::class_<ExtraForce, std::shared_ptr<ExtraForce>>(m, "ExtraForce").def_property_readonly("name", &ExtraForce::name);
+  py::class_<HydraulicForce, ExtraForce, std::shared_ptr<HydraulicForce>>(m, "HydraulicForce")
+      .def(py::init<int, double>(), py::arg("dof"), py::arg("c"));
+  py::class_<CoulombFriction, ExtraForce, std::shared_ptr<CoulombFriction>>(m, "CoulombFriction")
+      .def(py::init<int, int, double, double>(), py::arg("dof_a"), py::arg("dof_b"),
+           py::arg("force"), py::arg("v_eps"));
+  py::class_<SpringDashpot, ExtraForce, std::shared_ptr<SpringDashpot>>(m, "SpringDashpot")
+      .def(py::init<int, int, double, double>(), py::arg("dof_a"), py::arg("dof_b"),
+           py::arg("k"), py::arg("c"));
+
+  py::class_<Model>(m, "Model")
+      .def(py::init([](const Params& p, const std::vector<std::shared_ptr<ExtraForce>>& ex) {
+             return Model(p, std::vector<ExtraForcePtr>(ex.begin(), ex.end()));
+           }),
+           py::arg("params"), py::arg("extras") = std::vector<std::shared_ptr<ExtraForce>>{})
+      .def_property_readonly("params", &Model::params)
+      .def_property_readonly("static_positions", &Model::static_positions)
+      .def_property_readonly("x_top", &Model::x_top)
+      .def("indentation",
+           [](const Model& mo, int s, const State& y) {
+             if (s < 0 || s >= kSurfaces) throw std::invalid_argument("surface index 0..4");
+             return mo.indentation(s, y);
+           })
+      .def("rhs",
+           [](const Model& mo, double t, double flow, const State& y, const std::vector<int>& md) {
+             State yd;
+             mo.rhs(t, flow, y, modes_from(md), yd);
+             return yd;
+           })
+      .def("jacobian",
+           [](const Model& mo, double t, double flow, const State& y, const std::vector<int>& md) {
+             Mat14 J;
+             mo.jacobian(t, flow, y, modes_from(md), J);
+             return J;
+           })
+      .def("energy", [](const Model& mo, const State& y, const std::vector<int>& md) {
+        return mo.energy(y, modes_from(md));
+      });
+
+  py::class_<RunOptions>(m, "RunOptions")
+      .def(py::init<>())
+      .def_readwrite("flow_gpm", &RunOptions::flow_gpm)
+      .def_readwrite("cycles", &RunOptions::cycles)
+      .def_readwrite("analyse_cycles", &RunOptions::analyse_cycles)
+      .def_readwrite("method", &RunOptions::method)
+      .def_readwrite("rtol", &RunOptions::rtol)
+      .def_readwrite("atol", &RunOptions::atol)
+      .def_readwrite("max_step", &RunOptions::max_step)
+      .def_readwrite("record", &RunOptions::record)
+      .def_readwrite("output_rate_hz", &RunOptions::output_rate_hz)
+      .def_readwrite("summary_rate_hz", &RunOptions::summary_rate_hz)
+      .def_readwrite("peak_window_s", &RunOptions::peak_window_s)
+      .def_readwrite("max_steps", &RunOptions::max_steps)
+      .def_readwrite("max_events", &RunOptions::max_events)
+      .def_readwrite("initial_state", &RunOptions::initial_state)
+      .def("validate", &RunOptions::validate);
+
+  py::class_<SolverStats>(m, "SolverStats")
+      .def_readonly("steps", &SolverStats::steps)
+      .def_readonly("rhs_evals", &SolverStats::rhs_evals)
+      .def_readonly("jac_evals", &SolverStats::jac_evals)
+      .def_readonly("lin_setups", &SolverStats::lin_setups)
+      .def_readonly("err_test_fails", &SolverStats::err_test_fails)
+      .def_readonly("nonlin_iters", &SolverStats::nonlin_iters)
+      .def_readonly("nonlin_conv_fails", &SolverStats::nonlin_conv_fails)
+      .def_readonly("root_evals", &SolverStats::root_evals)
+      .def_readonly("reinits", &SolverStats::reinits);
+
+  py::class_<WindowSummary>(m, "WindowSummary")
+      .def_readonly("t0", &WindowSummary::t0)
+      .def_readonly("t1", &WindowSummary::t1)
+      .def_readonly("rate_hz", &WindowSummary::rate_hz)
+      .def_readonly("samples", &WindowSummary::samples)
+      .def_readonly("onsets", &WindowSummary::onsets)
+      .def_readonly("impulse_mean", &WindowSummary::impulse_mean)
+      .def_readonly("impulse_pos", &WindowSummary::impulse_pos)
+      .def_readonly("window_peaks", &WindowSummary::window_peaks);
+
+  py::class_<RunResult>(m, "RunResult")
+      .def_readonly("flow_gpm", &RunResult::flow_gpm)
+      .def_readonly("f_exc_hz", &RunResult::f_exc_hz)
+      .def_readonly("t_end", &RunResult::t_end)
+      .def_readonly("t", &RunResult::t)
+      .def_readonly("x", &RunResult::x)
+      .def_readonly("v", &RunResult::v)
+      .def_readonly("a", &RunResult::a)
+      .def_readonly("fc", &RunResult::fc)
+      .def_readonly("fh", &RunResult::fh)
+      .def_readonly("poincare_t", &RunResult::poincare_t)
+      .def_readonly("poincare", &RunResult::poincare)
+      .def_readonly("summary", &RunResult::summary)
+      .def_readonly("stats", &RunResult::stats)
+      .def_readonly("y_end", &RunResult::y_end)
+      .def_property_readonly("event_t",
+                             [](const RunResult& r) {
+                               return event_column<double>(r, [](const ContactEvent& e) { return e.t; });
+                             })
+      .def_property_readonly("event_surface",
+                             [](const RunResult& r) {
+                               return event_column<int>(r, [](const ContactEvent& e) { return e.surface; });
+                             })
+      .def_property_readonly("event_kind",
+                             [](const RunResult& r) {
+                               return event_column<int>(
+                                   r, [](const ContactEvent& e) { return static_cast<int>(e.kind); });
+                             })
+      .def_property_readonly("event_rel_velocity", [](const RunResult& r) {
+        return event_column<double>(r, [](const ContactEvent& e) { return e.rel_velocity; });
+      });
+
+  m.def(
+      "simulate",
+      [](const Model& model, const RunOptions& opts) {
+        py::gil_scoped_release release;
+        return simulate(model, opts);
+      },
+      py::arg("model"), py::arg("options"),
+      "Run the model (GIL released). Raises SolverError on solver failure, ValueError on bad "
+      "options.");
+}

@@ -1,0 +1,71 @@
+#pragma once
+/// @file cvode_solver.hpp
+/// @brief RAII owner of a SUNDIALS context, vector, dense matrix, linear solver and CVODE
+/// memory: nothing leaks when a run throws, and every flag is turned into a SolverError.
+
+#include <cvode/cvode.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include <string>
+
+#include "vadsim/integrator.hpp"
+
+namespace vadsim {
+
+/// @brief One CVODE integrator for a problem of fixed size with fixed callbacks.
+class CvodeSolver {
+ public:
+  CvodeSolver(int n, int n_roots, Method method, double rtol,
+              const Eigen::Ref<const Eigen::VectorXd>& atol, void* user_data, CVRhsFn rhs,
+              CVLsJacFn jac, CVRootFn roots);
+  ~CvodeSolver() = default;
+  CvodeSolver(const CvodeSolver&) = delete;
+  CvodeSolver& operator=(const CvodeSolver&) = delete;
+
+  /// @brief Restart from (t0, y0): the first call initialises, later ones re-initialise and
+  /// fold the statistics of the previous segment into stats().
+  void restart(double t0, const Eigen::Ref<const Eigen::VectorXd>& y0, double t_stop);
+  /// @brief One internal step (CV_ONE_STEP); returns CV_SUCCESS, CV_ROOT_RETURN or
+  /// CV_TSTOP_RETURN, throws on failure.
+  int step(double tout, double& tret);
+  /// @brief The interpolated solution at t within the last step (CVODE's dense output).
+  void interpolate(double t, N_Vector out) const;
+  /// @brief Which roots fired at the last CV_ROOT_RETURN: +1 rising, -1 falling, 0 none.
+  const int* roots_found();
+
+  void set_max_step(double h);
+  N_Vector y() const { return h_.y; }
+  N_Vector work() const { return h_.work; }
+  /// @brief Statistics of all finished segments plus the running one.
+  SolverStats stats() const;
+
+ private:
+  void check(int flag, const char* call, double t) const;
+  void fold_stats();
+
+  /// @brief The SUNDIALS objects; a member, so a constructor that throws half-way still
+  /// frees what it had created.
+  struct Handles {
+    SUNContext ctx = nullptr;
+    N_Vector y = nullptr, work = nullptr, atol = nullptr;
+    SUNMatrix A = nullptr;
+    SUNLinearSolver LS = nullptr;
+    void* mem = nullptr;
+    Handles() = default;
+    Handles(const Handles&) = delete;
+    Handles& operator=(const Handles&) = delete;
+    ~Handles();
+  } h_;
+  int n_roots_;
+  bool initialised_ = false;
+  SolverStats done_;
+  std::string last_error_;
+  int roots_[16] = {};
+  static void error_handler(int code, const char* module, const char* function, char* msg,
+                            void* data);
+};
+
+}  // namespace vadsim

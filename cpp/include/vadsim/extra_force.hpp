@@ -1,0 +1,81 @@
+#pragma once
+/// @file extra_force.hpp
+/// @brief A hook for physics the dissertation left out (hydraulic force, friction, radiation
+/// into the string...), evaluated inside the core so that fits stay fast and the integrator
+/// never changes when a term is added.
+
+#include <memory>
+#include <string>
+
+#include "vadsim/types.hpp"
+
+namespace vadsim {
+
+/// @brief One additional generalized force (N/kg of m*) with its Jacobian.
+///
+/// Implementations must be immutable (shared across threads), smooth in the state (the
+/// integrator does not look for their switches), and must not allocate.
+class ExtraForce {
+ public:
+  virtual ~ExtraForce() = default;
+  /// @brief Short identifier used in results and error messages.
+  virtual std::string name() const = 0;
+  /// @brief Add the force to f. u are displacements (m) from the static on-bottom state (the
+  /// state the run starts from), v velocities (m/s): extra physics is a perturbation of that
+  /// state, and a spring added this way does not move the equilibrium.
+  virtual void add_force(double t, double flow_gpm, const Vec7& x, const Vec7& v,
+                         Vec7& f) const = 0;
+  /// @brief Add df/dx and df/dv.
+  virtual void add_jacobian(double t, double flow_gpm, const Vec7& x, const Vec7& v,
+                            Mat7& dfdx, Mat7& dfdv) const = 0;
+};
+
+/// @brief c Q^2 pushing one body (anvil or bit) towards the rock: the pressure drop across
+/// the tool grows with the square of the flow.
+class HydraulicForce final : public ExtraForce {
+ public:
+  HydraulicForce(int dof, double c);
+  std::string name() const override { return "hydraulic_force"; }
+  void add_force(double, double flow_gpm, const Vec7&, const Vec7&, Vec7& f) const override {
+    f[dof_] += c_ * flow_gpm * flow_gpm;
+  }
+  void add_jacobian(double, double, const Vec7&, const Vec7&, Mat7&, Mat7&) const override {}
+
+ private:
+  int dof_;
+  double c_;
+};
+
+/// @brief Coulomb friction between two bodies, regularised as F tanh(v_rel / v_eps) so that
+/// stick-slip needs no extra root functions.
+class CoulombFriction final : public ExtraForce {
+ public:
+  CoulombFriction(int dof_a, int dof_b, double force, double v_eps);
+  std::string name() const override { return "coulomb_friction"; }
+  void add_force(double, double, const Vec7&, const Vec7& v, Vec7& f) const override;
+  void add_jacobian(double, double, const Vec7&, const Vec7& v, Mat7&,
+                    Mat7& dfdv) const override;
+
+ private:
+  int a_, b_;
+  double force_, v_eps_;
+};
+
+/// @brief A linear spring-dashpot from a body to the ground (dof_b < 0) or to another body:
+/// e.g. the impedance of the string above the top support (waves radiated away).
+class SpringDashpot final : public ExtraForce {
+ public:
+  SpringDashpot(int dof_a, int dof_b, double k, double c);
+  std::string name() const override { return "spring_dashpot"; }
+  void add_force(double, double, const Vec7& x, const Vec7& v, Vec7& f) const override;
+  void add_jacobian(double, double, const Vec7&, const Vec7&, Mat7& dfdx,
+                    Mat7& dfdv) const override;
+
+ private:
+  int a_, b_;
+  double k_, c_;
+};
+
+using ExtraForcePtr = std::shared_ptr<const ExtraForce>;
+
+}  // namespace vadsim

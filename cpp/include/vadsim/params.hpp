@@ -1,0 +1,72 @@
+#pragma once
+/// @file params.hpp
+/// @brief The model's parameters as one plain struct, plus a name table so that every layer
+/// (C++, bindings, presets, calibration) addresses a parameter by the same name.
+
+#include <string>
+#include <vector>
+
+namespace vadsim {
+
+/// @brief Which force law the four impact surfaces use (the rock always keeps Kelvin-Voigt).
+enum class ContactLawKind {
+  KelvinVoigt = 0,           ///< k d + c d' while d > 0, tension kept (the dissertation's law)
+  KelvinVoigtNoTension = 1,  ///< max(0, k d + c d'): a contact can only push
+  HuntCrossley = 2           ///< max(0, k d^n + lambda d^n d') with lambda = hc_alpha * k
+};
+
+/// @brief Table 2.1 of the dissertation plus the constants it withholds (l0, wob).
+///
+/// Units are those of MODEL.md: masses in m*, stiffness in N/m per kg of m*, damping in
+/// N s/m per kg, forces in N per kg, lengths in units of l0 (metres = L * l0).
+/// Defaults are the 7in tool with the CDE bit, l0 = 0.7 m, wob = 1000 N/kg.
+struct Params {
+  // masses (m*)
+  double m1 = 1.44, m2 = 1.0, m3 = 3.78, m4 = 7.24, m5 = 1.17, m6 = 4.7, m7 = 9.18;
+  // string stiffness and damping
+  double k3 = 2.18e6, k4 = 5.04e6, k5 = 3.62e7, k6 = 6.14e6, k7 = 2.76e6;
+  double c3 = 787, c4 = 866, c5 = 945, c6 = 756, c7 = 7870;
+  // contacts: spring #1, impact face #2, off-bottom #3, on-bottom #4, rock
+  double kS = 250000, kI = 120000, kOff = 1.34e6, kOn = 1.34e6, kR = 78700;
+  double cS = 16.54, cI = 469, cOff = 1280, cOn = 1280, cR = 394;
+  // excitation and drag
+  double cD = 2.52, Fo = 300.47, alpha = 0.67, beta = 95.2, phi = 0.98, psi = -2.14;
+  // geometry (l0)
+  double L1 = 1.24, L2 = 2.16, L3 = 4.06, LS = 1.8, LI = 0.07, LOn = 0.01, LR = 5.21;
+  // withheld constants
+  double l0 = 0.7;     ///< standard length (m)
+  double wob = 1000;   ///< weight on bit per unit reference mass (N/kg)
+  // contact-law options (used when law != KelvinVoigt)
+  double hc_n = 1.0;       ///< Hunt-Crossley exponent n
+  double hc_alpha = 0.2;   ///< Hunt-Crossley damping factor (s/m): lambda = hc_alpha * k
+  ContactLawKind law = ContactLawKind::KelvinVoigt;
+
+  /// @brief Gap between anvil and recoil spring with anvil on bit and bit on the on-bottom
+  /// shoulder (dissertation Eq. 5.1), in l0.
+  double gap() const { return L3 - (L2 + LS + LI + LOn); }
+
+  /// @brief Excitation frequency (Hz) at a flow rate (gal/min).
+  double excitation_hz(double flow_gpm) const;
+
+  /// @brief Throws std::invalid_argument naming the first non-physical value.
+  void validate() const;
+};
+
+/// @brief A numeric parameter's name, unit, meaning, and the rule it must obey.
+struct ParamInfo {
+  const char* name;
+  const char* unit;
+  const char* meaning;
+  enum class Rule { Positive, NonNegative, Finite, Exponent } rule;
+  double Params::*member;
+};
+
+/// @brief Every numeric parameter, in a fixed order (the order of Table 2.1, then l0, wob, law
+/// options). The contact law kind is not in the table: it is not a number.
+const std::vector<ParamInfo>& param_table();
+
+/// @brief Read or write a parameter by name; unknown names throw std::invalid_argument.
+double get_param(const Params& p, const std::string& name);
+void set_param(Params& p, const std::string& name, double value);
+
+}  // namespace vadsim

@@ -1,0 +1,277 @@
+#include "vadsim/integrator.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "vadsim/cvode_solver.hpp"
+
+namespace vadsim {
+
+namespace {
+
+/// @brief What the CVODE callbacks need: the const model, the flow and the current modes.
+struct Workspace {
+  const Model* model;
+  double flow;
+  Modes modes;
+  int n_roots;
+};
+
+int rhs_cb(sunrealtype t, N_Vector y, N_Vector ydot, void* data) {
+  const auto* w = static_cast<const Workspace*>(data);
+  Eigen::Map<const State> ym(NV_DATA_S(y));
+  Eigen::Map<State> yd(NV_DATA_S(ydot));
+  w->model->rhs(t, w->flow, ym, w->modes, yd);
+  return yd.allFinite() ? 0 : 1;  // recoverable: CVODE retries with a smaller step
+}
+
+int jac_cb(sunrealtype t, N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector,
+           N_Vector) {
+  const auto* w = static_cast<const Workspace*>(data);
+  Eigen::Map<const State> ym(NV_DATA_S(y));
+  Eigen::Map<Mat14> Jm(SM_DATA_D(J));
+  w->model->jacobian(t, w->flow, ym, w->modes, Jm);
+  return 0;
+}
+
+int root_cb(sunrealtype, N_Vector y, sunrealtype* g, void* data) {
+  const auto* w = static_cast<const Workspace*>(data);
+  Eigen::Map<const State> ym(NV_DATA_S(y));
+  for (int s = 0; s < kSurfaces; ++s) g[s] = w->model->indentation(s, ym);
+  for (int s = 0; 2 * kSurfaces <= w->n_roots && s < kSurfaces; ++s) {
+    const bool live = w->model->pushes_only(s) && w->modes[s] != ContactMode::Open;
+    g[kSurfaces + s] = live ? w->model->push_indicator(s, ym) : 1.0;
+  }
+  return 0;
+}
+
+/// @brief A uniform time grid that is filled as the integration passes it.
+struct Grid {
+  double t0 = 0, dt = 1;
+  long n = 0, next = 0;
+  double time(long k) const { return t0 + static_cast<double>(k) * dt; }
+  bool pending(double tlim) const { return next < n && time(next) <= tlim; }
+};
+
+void fail_option(const char* name, double v, const char* why) {
+  std::ostringstream os;
+  os << "option " << name << " = " << v << " " << why;
+  throw std::invalid_argument(os.str());
+}
+
+}  // namespace
+
+void RunOptions::validate() const {
+  if (!(flow_gpm > 0) || !std::isfinite(flow_gpm)) fail_option("flow_gpm", flow_gpm, "must be > 0");
+  if (!(cycles > 0) || !std::isfinite(cycles)) fail_option("cycles", cycles, "must be > 0");
+  if (cycles > 1e6) fail_option("cycles", cycles, "must be <= 1e6");
+  if (!(analyse_cycles > 0) || analyse_cycles > cycles)
+    fail_option("analyse_cycles", analyse_cycles, "must be in (0, cycles]");
+  if (!(rtol >= 1e-14 && rtol <= 1e-1)) fail_option("rtol", rtol, "must be in [1e-14, 0.1]");
+  if (!(atol > 0) || !std::isfinite(atol)) fail_option("atol", atol, "must be > 0");
+  if (!(max_step >= 0) || !std::isfinite(max_step)) fail_option("max_step", max_step, "must be >= 0");
+  if (!(output_rate_hz >= 0) || output_rate_hz > 1e7)
+    fail_option("output_rate_hz", output_rate_hz, "must be in [0, 1e7]");
+  if (!(summary_rate_hz > 0) || summary_rate_hz > 1e7)
+    fail_option("summary_rate_hz", summary_rate_hz, "must be in (0, 1e7]");
+  if (!(peak_window_s > 0) || !std::isfinite(peak_window_s))
+    fail_option("peak_window_s", peak_window_s, "must be > 0");
+  if (max_steps <= 0) fail_option("max_steps", static_cast<double>(max_steps), "must be > 0");
+  if (max_events < 0) fail_option("max_events", static_cast<double>(max_events), "must be >= 0");
+  if (initial_state && !initial_state->allFinite())
+    throw std::invalid_argument("option initial_state must be finite");
+}
+
+RunResult simulate(const Model& model, const RunOptions& opts) {
+  opts.validate();
+  const Params& p = model.params();
+  RunResult r;
+  r.flow_gpm = opts.flow_gpm;
+  r.f_exc_hz = p.excitation_hz(opts.flow_gpm);
+  const double period = 1.0 / r.f_exc_hz;
+  r.t_end = opts.cycles * period;
+  const double t_w0 = (opts.cycles - opts.analyse_cycles) * period;
+  const long samples_limit = 200000000;  // outputs beyond ~5 GB are a mistake, not a request
+  auto grid_count = [&](double span, double rate, const char* name) {
+    const double n = std::floor(span * rate * (1 + 1e-12)) + 1;
+    if (n > samples_limit) fail_option(name, rate, "asks for more than 2e8 samples");
+    return static_cast<long>(n);
+  };
+
+  // Output grid, summary grid and Poincare section.
+  Grid out, sum, sec;
+  if (opts.record != Record::None && opts.output_rate_hz > 0) {
+    out.t0 = (opts.record == Record::Window) ? t_w0 : 0.0;
+    out.dt = 1.0 / opts.output_rate_hz;
+    out.n = grid_count(r.t_end - out.t0, opts.output_rate_hz, "output_rate_hz");
+  }
+  sum.t0 = t_w0;
+  sum.dt = 1.0 / opts.summary_rate_hz;
+  sum.n = std::max(1L, grid_count(r.t_end - t_w0, opts.summary_rate_hz, "summary_rate_hz") - 1);
+  sec.dt = period;
+  sec.n = static_cast<long>(std::floor(opts.cycles * (1 + 1e-12))) + 1;
+
+  r.t.resize(out.n);
+  r.x.resize(out.n, kDof);
+  r.v.resize(out.n, kDof);
+  r.a.resize(out.n, kDof);
+  r.fc.resize(out.n, kSurfaces);
+  r.fh.resize(out.n);
+  r.poincare_t.resize(sec.n);
+  r.poincare.resize(sec.n, kState);
+  auto& sm = r.summary;
+  sm.t0 = t_w0;
+  sm.t1 = r.t_end;
+  sm.rate_hz = opts.summary_rate_hz;
+  sm.samples = sum.n;
+  const double per_window = opts.peak_window_s * opts.summary_rate_hz;
+  const long n_windows =
+      static_cast<long>(std::floor((r.t_end - t_w0) / opts.peak_window_s + 1e-9));
+  sm.window_peaks = RowMat7::Zero(std::max(0L, n_windows), kDof);
+
+  // Initial state in displacements from the static equilibrium.
+  const Vec7& xs = model.static_positions();
+  State y0 = State::Zero();
+  if (opts.initial_state) {
+    y0 = *opts.initial_state;
+    y0.head<kDof>() -= xs;
+  }
+
+  Workspace w{&model, opts.flow_gpm, {}, kSurfaces};
+  for (int s = 0; s < kSurfaces; ++s) {
+    if (model.pushes_only(s)) w.n_roots = 2 * kSurfaces;
+    w.modes[s] = model.indentation(s, y0) > 0 ? ContactMode::Pushing : ContactMode::Open;
+  }
+  for (int s = 0; s < kSurfaces; ++s) w.modes[s] = model.mode_at(s, y0, 0.0, opts.flow_gpm, w.modes);
+
+  Eigen::VectorXd atol(kState);
+  atol.head<kDof>().setConstant(opts.atol);
+  atol.tail<kDof>().setConstant(opts.atol * 1e3);
+  CvodeSolver solver(kState, w.n_roots, opts.method, opts.rtol, atol, &w, rhs_cb, jac_cb,
+                     root_cb);
+  if (opts.max_step > 0) solver.set_max_step(opts.max_step);
+
+  const long max_events = opts.max_events > 0
+                              ? opts.max_events
+                              : static_cast<long>(200 * std::ceil(opts.cycles)) + 1000;
+  Evaluation ev;
+  State yk;
+  N_Vector tmp = solver.work();
+
+  // Fill every grid point up to tlim with the current segment's interpolant (or y_at when the
+  // point is the segment's own start, where no step exists yet to interpolate).
+  auto emit = [&](double tlim, double t_start, const State& y_start) {
+    auto sample = [&](double t) {
+      if (t <= t_start) {
+        yk = y_start;
+      } else {
+        solver.interpolate(t, tmp);
+        yk = Eigen::Map<const State>(NV_DATA_S(tmp));
+      }
+      model.evaluate(t, opts.flow_gpm, yk, w.modes, ev);
+    };
+    while (sec.pending(tlim)) {
+      const double t = sec.time(sec.next);
+      sample(t);
+      r.poincare_t[sec.next] = t;
+      r.poincare.row(sec.next).head<kDof>() = (xs + yk.head<kDof>()).transpose();
+      r.poincare.row(sec.next).tail<kDof>() = yk.tail<kDof>().transpose();
+      ++sec.next;
+    }
+    while (out.pending(tlim)) {
+      const long k = out.next++;
+      const double t = out.time(k);
+      sample(t);
+      r.t[k] = t;
+      r.x.row(k) = (xs + yk.head<kDof>()).transpose();
+      r.v.row(k) = yk.tail<kDof>().transpose();
+      r.a.row(k) = ev.acc.transpose();
+      for (int s = 0; s < kSurfaces; ++s) r.fc(k, s) = ev.fc[s];
+      r.fh[k] = ev.fh;
+    }
+    while (sum.pending(tlim)) {
+      const long k = sum.next++;
+      sample(sum.time(k));
+      const double fi = ev.fc[kImpact];
+      sm.impulse_mean += fi;
+      sm.impulse_pos += fi > 0 ? fi : 0.0;
+      const long win = static_cast<long>(std::floor(k / per_window + 1e-9));
+      if (win < n_windows) {
+        for (int i = 0; i < kDof; ++i)
+          sm.window_peaks(win, i) = std::max(sm.window_peaks(win, i), std::abs(ev.acc[i]));
+      }
+    }
+  };
+
+  double t = 0.0;
+  State y_seg = y0;
+  double t_seg = 0.0;
+  solver.restart(0.0, y0, r.t_end);
+  long calls = 0, stalled = 0;
+  while (true) {
+    double tret = t;
+    const int flag = solver.step(r.t_end, tret);
+    if (++calls > opts.max_steps) {
+      throw SolverError("CVode", tret, 0,
+                        "step budget max_steps = " + std::to_string(opts.max_steps) +
+                            " exhausted: the run is too stiff or chatters");
+    }
+    emit(tret, t_seg, y_seg);
+    stalled = (tret - t <= 1e-12 * std::max(1.0, std::abs(t))) ? stalled + 1 : 0;
+    if (stalled > 1000) {
+      throw SolverError("CVode", tret, 0, "no progress in time over 1000 steps (contact chatter)");
+    }
+    t = tret;
+    if (flag == CV_TSTOP_RETURN || t >= r.t_end) break;
+    if (flag != CV_ROOT_RETURN) continue;
+
+    Eigen::Map<const State> yr(NV_DATA_S(solver.y()));
+    const int* found = solver.roots_found();
+    for (int s = 0; s < kSurfaces; ++s) {
+      const int dir_d = found[s];
+      const int dir_f = (w.n_roots > kSurfaces) ? found[kSurfaces + s] : 0;
+      if (dir_d == 0 && dir_f == 0) continue;
+      const double dd = model.indentation_rate(s, yr);
+      if (dir_d > 0 && w.modes[s] == ContactMode::Open) {
+        w.modes[s] = (model.pushes_only(s) && model.push_indicator(s, yr) < 0)
+                         ? ContactMode::Lifted
+                         : ContactMode::Pushing;
+        r.events.push_back({t, s, EventKind::Onset, dd});
+      } else if (dir_d < 0 && w.modes[s] != ContactMode::Open) {
+        w.modes[s] = ContactMode::Open;
+        r.events.push_back({t, s, EventKind::Release, dd});
+      } else if (dir_f < 0 && w.modes[s] == ContactMode::Pushing) {
+        w.modes[s] = ContactMode::Lifted;
+        r.events.push_back({t, s, EventKind::Lift, dd});
+      } else if (dir_f > 0 && w.modes[s] == ContactMode::Lifted) {
+        w.modes[s] = ContactMode::Pushing;
+        r.events.push_back({t, s, EventKind::Relatch, dd});
+      }
+    }
+    if (static_cast<long>(r.events.size()) > max_events) {
+      throw SolverError("root-finding", t, 0,
+                        "more than max_events = " + std::to_string(max_events) +
+                            " contact events: the contacts chatter");
+    }
+    y_seg = yr;
+    t_seg = t;
+    solver.restart(t, y_seg, r.t_end);
+  }
+  // Points at exactly t_end (rounding) that the last step did not reach.
+  Eigen::Map<const State> ye(NV_DATA_S(solver.y()));
+  y_seg = ye;
+  emit(r.t_end * (1 + 1e-12), r.t_end * (1 + 1e-12), y_seg);
+
+  for (const auto& e : r.events)
+    if (e.kind == EventKind::Onset && e.t >= t_w0) sm.onsets[e.surface] += 1;
+  if (sm.samples > 0) {
+    sm.impulse_mean /= static_cast<double>(sm.samples);
+    sm.impulse_pos /= static_cast<double>(sm.samples);
+  }
+  r.stats = solver.stats();
+  r.y_end.head<kDof>() = xs + ye.head<kDof>();
+  r.y_end.tail<kDof>() = ye.tail<kDof>();
+  return r;
+}
+
+}  // namespace vadsim
