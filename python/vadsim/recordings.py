@@ -1,0 +1,1044 @@
+"""Field-test campaigns: reading, validating and writing recordings.
+
+Why this module exists: the simulator is only useful if its output can be held against what
+downhole accelerometers recorded, and field files are where silent mistakes hide (a dropped
+sample, a column bolted to the wrong sensor, a clipped peak taken at face value). So every rule
+of the campaign format (``RECORDINGS.md``) is checked here, once, and every violation raises a
+:class:`CampaignError` that names the file and the line or TOML key, so that the person holding
+the file can fix it. Clipped samples are not an error (real sensors clip) but are flagged per
+sample and announced with a warning, because a clipped peak under-reports the vibration.
+
+Format extensions (all optional, all round-tripped by :func:`save_campaign`):
+
+- top-level ``description`` (string): free text, e.g. where the data came from;
+- per event ``reference`` (inline table of strings/numbers/booleans): values published for the
+  event by someone else (the dissertation's own simulation, for the thesis campaigns).
+
+Unknown keys are rejected rather than ignored, so that a typo such as ``lowpass = 400`` cannot
+silently drop a sensor's anti-alias filter from the comparison.
+
+Time check ("uniform at rate_hz within 1e-6 relative"): read as a sampling clock good to 1e-6
+relative, printed with 7 decimals. Sample i must lie within
+``1e-6 * i / rate_hz + min(1e-7 s, 0.01 / rate_hz)`` of ``t0 + i / rate_hz``. A per-step 1e-6
+test would reject the format's own example (``0.0009766`` for 1/1024 s is off by 4e-5
+relative); this one still catches a single dropped, repeated or shifted sample.
+
+Numeric precision of :func:`save_campaign`: accelerations are written with Python's shortest
+round-trip representation of the float64 value, so they read back bit-identical (float32 data
+is widened to float64 first, hence also exact). ``time_s`` is written with a fixed number of
+decimals, 7 as in the format's example (more only for rates above 10 kHz), so a time that is not
+already on that decimal grid moves by at most half a unit of the last decimal (5e-8 s) on the
+first save and is stable afterwards.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+import shutil
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+import pandas as pd
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the project allows it; tomli is the same parser.
+    import tomli as tomllib  # type: ignore[no-redef]
+
+__all__ = [
+    "KNOWN_TOOLS",
+    "KNOWN_BITS",
+    "FEATURES",
+    "CampaignError",
+    "ClippedSamplesWarning",
+    "Sensor",
+    "Event",
+    "Campaign",
+    "load_campaign",
+    "save_campaign",
+    "thesis_campaigns",
+    "THESIS_CAMPAIGNS",
+]
+
+#: Tool presets the project knows by name. Kept as the single source of truth here until the
+#: presets module owns the list (it can then re-export or replace this constant).
+KNOWN_TOOLS: tuple[str, ...] = ("7in", "9.5in")
+
+#: Bits the model has a bit mass ``m1`` for (MODEL.md).
+KNOWN_BITS: tuple[str, ...] = ("CDE", "RC", "PDC")
+
+#: Summary features an event may carry, per sensor, as ``<sensor>_<feature>`` (MODEL.md).
+FEATURES: tuple[str, ...] = ("peak_mean_g", "peak_std_g", "impact_hz")
+
+#: Relative error allowed between the recorded sampling clock and ``rate_hz``.
+RATE_TOLERANCE = 1e-6
+
+#: Absolute time jitter allowed per sample, on top of the clock tolerance: the format prints
+#: ``time_s`` with 7 decimals, so a perfect clock still shows up to 5e-8 s of rounding.
+TIME_RESOLUTION_S = 1e-7
+
+#: Name of the campaign description file inside a campaign folder.
+CAMPAIGN_FILE = "campaign.toml"
+
+_TOP_KEYS = ("name", "tool", "bit", "wob_klbf", "description", "sensors", "events")
+_SENSOR_KEYS = ("dof", "rate_hz", "range_g", "lowpass_hz")
+_EVENT_KEYS = ("id", "flow_gpm", "wob_klbf", "file", "features", "reference")
+# Sensor names become CSV column prefixes and TOML keys; restricting them to TOML's bare-key
+# alphabet keeps both unambiguous without quoting rules.
+_SENSOR_NAME_RE = re.compile(r"[A-Za-z0-9_-]+")
+_BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
+_NUMBER_RE = re.compile(r"\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*")
+# Tokens pandas reads as missing values; named as such rather than as "non-numeric".
+_NA_TOKENS = frozenset(
+    {"", "nan", "+nan", "-nan", "na", "n/a", "null", "none", "#n/a", "#na", "<na>",
+     "-1.#ind", "1.#ind", "-1.#qnan", "1.#qnan", "#n/a n/a"}
+)
+_INF_TOKENS = frozenset({"inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"})
+_LINE_SPLIT_RE = re.compile(r"\r\n|\r|\n")
+_LINE_SPLIT_BYTES_RE = re.compile(rb"\r\n|\r|\n")
+
+
+class CampaignError(ValueError):
+    """A campaign folder violates the format; the message names the file and line or key."""
+
+
+class ClippedSamplesWarning(UserWarning):
+    """Some samples of an event reached the sensor's range and are flagged as clipped."""
+
+
+@dataclass
+class Sensor:
+    """One downhole accelerometer channel.
+
+    Parameters
+    ----------
+    name : str
+        Column prefix in the event CSVs (``<name>_g``) and key in ``[sensors.<name>]``.
+    dof : int
+        Degree of freedom (1..7) the sensor is bolted to.
+    rate_hz : float
+        Sampling rate.
+    range_g : float
+        Full-scale range; samples with ``|a| >= range_g`` are clipped.
+    lowpass_hz : float or None
+        Anti-alias corner frequency, or None when the sensor has none.
+    """
+
+    name: str
+    dof: int
+    rate_hz: float
+    range_g: float
+    lowpass_hz: float | None = None
+
+    @property
+    def column(self) -> str:
+        """Name of this sensor's column in an event CSV."""
+        return f"{self.name}_g"
+
+
+@dataclass(eq=False)
+class Event:
+    """One steady operating point of a campaign.
+
+    Parameters
+    ----------
+    id : str
+        Identifier, unique within the campaign.
+    flow_gpm : float
+        Flow rate in gal/min.
+    wob_klbf : float
+        Weight on bit in klbf (the campaign default already applied).
+    file : str or None
+        CSV path relative to the campaign folder, or None for a summary-only event.
+    features : dict of str to float
+        Summary features keyed ``<sensor>_<feature>``.
+    data : pandas.DataFrame or None
+        Samples: ``time_s`` (s) then one ``<sensor>_g`` column per sensor, in sensor
+        declaration order, float64; axial acceleration in g, positive downward.
+    clipped : dict of str to numpy.ndarray
+        Per sensor name, a boolean mask over the samples, True where ``|a| >= range_g``.
+        Derived from ``data`` by :func:`load_campaign`; not part of equality.
+    reference : dict
+        Values published for this event by others (format extension, see module docstring).
+    """
+
+    id: str
+    flow_gpm: float
+    wob_klbf: float
+    file: str | None = None
+    features: dict[str, float] = field(default_factory=dict)
+    data: pd.DataFrame | None = field(default=None, repr=False)
+    clipped: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    reference: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_clipped(self) -> int:
+        """Total number of clipped samples over all sensors."""
+        return int(sum(int(np.count_nonzero(m)) for m in self.clipped.values()))
+
+    def __eq__(self, other: object) -> bool:
+        # Written by hand because DataFrame == DataFrame is elementwise, which breaks the
+        # dataclass-generated comparison; `clipped` is derived from `data`, so it is skipped.
+        if not isinstance(other, Event):
+            return NotImplemented
+        if (self.id, self.flow_gpm, self.wob_klbf, self.file) != (
+            other.id, other.flow_gpm, other.wob_klbf, other.file
+        ):
+            return False
+        if self.features != other.features or self.reference != other.reference:
+            return False
+        if self.data is None or other.data is None:
+            return self.data is None and other.data is None
+        return list(self.data.columns) == list(other.data.columns) and np.array_equal(
+            self.data.to_numpy(dtype=np.float64), other.data.to_numpy(dtype=np.float64)
+        )
+
+    __hash__ = None  # type: ignore[assignment]  # mutable, compared by value
+
+
+@dataclass
+class Campaign:
+    """One field test: a tool, a bit, sensors and events.
+
+    Parameters
+    ----------
+    name : str
+        Human-readable name.
+    tool : str
+        A name in :data:`KNOWN_TOOLS` or a preset file path relative to the campaign folder.
+    bit : str
+        One of :data:`KNOWN_BITS`.
+    wob_klbf : float or None
+        Default weight on bit for events that do not give one.
+    sensors : dict of str to Sensor
+        Keyed by sensor name, in declaration order.
+    events : list of Event
+        In file order.
+    root : pathlib.Path or None
+        Folder the campaign was loaded from; not part of equality.
+    description : str
+        Free text (format extension).
+    """
+
+    name: str
+    tool: str
+    bit: str
+    wob_klbf: float | None
+    sensors: dict[str, Sensor]
+    events: list[Event]
+    root: Path | None = field(default=None, compare=False)
+    description: str = ""
+
+    def event(self, event_id: str) -> Event:
+        """Return the event with this id.
+
+        Raises
+        ------
+        KeyError
+            If no event has this id.
+        """
+        for ev in self.events:
+            if ev.id == event_id:
+                return ev
+        raise KeyError(event_id)
+
+
+# --------------------------------------------------------------------------------------------
+# TOML key -> line lookup. tomllib returns plain dicts without positions, yet a line number is
+# what a person editing the file needs; a light scan of table headers recovers it for the
+# usual layout ([sensors.x], [[events]]) and gives up (key only) on anything fancier.
+
+
+class _TomlLines:
+    _ARRAY_HDR = re.compile(r"\s*\[\[\s*([^\[\]]+?)\s*\]\]\s*(?:#.*)?$")
+    _TABLE_HDR = re.compile(r"\s*\[\s*([^\[\]]+?)\s*\]\s*(?:#.*)?$")
+
+    def __init__(self, text: str) -> None:
+        self.lines = text.split("\n")
+        # (first line number, kind, normalised name); line numbers are 1-based.
+        self.headers: list[tuple[int, str, str]] = []
+        for i, line in enumerate(self.lines, start=1):
+            m = self._ARRAY_HDR.match(line)
+            kind = "array"
+            if m is None:
+                m = self._TABLE_HDR.match(line)
+                kind = "table"
+            if m is not None:
+                name = re.sub(r"\s*\.\s*", ".", m.group(1)).replace('"', "").replace("'", "")
+                self.headers.append((i, kind, name))
+
+    def _segment(self, kind: str, name: str, nth: int = 0) -> tuple[int, int] | None:
+        seen = 0
+        for j, (line, k, n) in enumerate(self.headers):
+            if k == kind and n == name:
+                if seen == nth:
+                    end = self.headers[j + 1][0] if j + 1 < len(self.headers) else len(
+                        self.lines) + 1
+                    return line, end
+                seen += 1
+        return None
+
+    def _key_line(self, start: int, end: int, key: str) -> int | None:
+        k = re.escape(key)
+        pat = re.compile(rf"\s*(?:{k}|\"{k}\"|'{k}')\s*=")
+        for i in range(start, min(end, len(self.lines) + 1)):
+            if pat.match(self.lines[i - 1]):
+                return i
+        return None
+
+    def line_of(self, path: tuple[str | int, ...]) -> int | None:
+        """Best-effort 1-based line of a key path, or None."""
+        if not path:
+            return None
+        head = path[0]
+        if head == "events" and len(path) >= 2 and isinstance(path[1], int):
+            seg = self._segment("array", "events", path[1])
+            rest = path[2:]
+        elif head == "sensors" and len(path) >= 2 and isinstance(path[1], str):
+            seg = self._segment("table", f"sensors.{path[1]}")
+            rest = path[2:]
+        else:
+            first = self.headers[0][0] if self.headers else len(self.lines) + 1
+            seg = (0, first)
+            rest = path
+            if head == "sensors":
+                table = self._segment("table", "sensors")
+                if table is not None:
+                    return table[0]
+                sub = [line for line, _, n in self.headers if n.startswith("sensors.")]
+                if sub:
+                    return sub[0]
+        if seg is None:
+            return None
+        start, end = seg
+        if rest and isinstance(rest[0], str):
+            line = self._key_line(start + 1 if start else 1, end, rest[0])
+            if line is not None:
+                return line
+        return start or None
+
+
+def _format_key(path: tuple[str | int, ...]) -> str:
+    out = ""
+    for part in path:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            text = part if _BARE_KEY_RE.fullmatch(part) else _toml_str(part)
+            out += f".{text}" if out else text
+    return out
+
+
+class _TomlContext:
+    """Formats key errors for one campaign.toml (file + best-effort line + key path)."""
+
+    def __init__(self, file: Path | str, text: str | None) -> None:
+        self.file = str(file)
+        self.lines = _TomlLines(text) if text is not None else None
+
+    def fail(self, path: tuple[str | int, ...], problem: str, label: str = "") -> NoReturn:
+        line = self.lines.line_of(path) if self.lines is not None else None
+        where = f"{self.file}, line {line}" if line else self.file
+        raise CampaignError(f"{where}: key {_format_key(path)}{label}: {problem}")
+
+
+def _type_name(value: object) -> str:
+    names = {bool: "boolean", int: "integer", float: "float", str: "string", dict: "table",
+             list: "array"}
+    return names.get(type(value), type(value).__name__)
+
+
+def _get_str(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+             required: bool = True, label: str = "") -> str | None:
+    key = path[-1]
+    if key not in table:
+        if required:
+            ctx.fail(path, "required key is missing", label)
+        return None
+    value = table[key]
+    if not isinstance(value, str):
+        ctx.fail(path, f"must be a string, got {_type_name(value)} {value!r}", label)
+    if not value.strip():
+        ctx.fail(path, "must not be empty", label)
+    return value
+
+
+def _get_number(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+                required: bool = True, label: str = "") -> float | None:
+    """A finite number; bools are rejected even though Python treats them as ints."""
+    key = path[-1]
+    if key not in table:
+        if required:
+            ctx.fail(path, "required key is missing", label)
+        return None
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        ctx.fail(path, f"must be a number, got {_type_name(value)} {value!r}", label)
+    try:
+        number = float(value)
+    except OverflowError:
+        ctx.fail(path, f"number out of range: {value!r}", label)
+    if not math.isfinite(number):
+        ctx.fail(path, f"must be a finite number, got {value!r}", label)
+    return number
+
+
+def _get_positive(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+                  required: bool = True, label: str = "") -> float | None:
+    number = _get_number(ctx, table, path, required, label)
+    if number is not None and number <= 0:
+        ctx.fail(path, f"must be > 0, got {table[path[-1]]!r}", label)
+    return number
+
+
+def _check_keys(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+                allowed: tuple[str, ...], label: str = "") -> None:
+    for key in table:
+        if key not in allowed:
+            ctx.fail(path + (key,), f"unknown key (allowed: {', '.join(allowed)})", label)
+
+
+def _split_feature(key: str, sensors: Mapping[str, Sensor]) -> tuple[str, str] | None:
+    # Matched by suffix so that sensor names may themselves contain underscores; no feature
+    # name is an underscore-suffix of another, so the split is unique.
+    for feat in FEATURES:
+        suffix = "_" + feat
+        if key.endswith(suffix) and key[: -len(suffix)] in sensors:
+            return key[: -len(suffix)], feat
+    return None
+
+
+def _tool_file(root: Path, tool: str) -> Path | None:
+    try:
+        candidate = root / tool
+        return candidate if candidate.is_file() else None
+    except (OSError, ValueError):
+        # Names too long or with NUL bytes are not files; is_file() does not swallow all.
+        return None
+
+
+def _parse_document(doc: Mapping[str, Any], ctx: _TomlContext, root: Path | None) -> Campaign:
+    """Validate a parsed campaign.toml and build a Campaign without sample data.
+
+    ``root`` is the folder used to resolve a preset-file tool; None skips that check.
+    """
+    _check_keys(ctx, doc, (), _TOP_KEYS)
+    name = _get_str(ctx, doc, ("name",))
+    tool = _get_str(ctx, doc, ("tool",))
+    bit = _get_str(ctx, doc, ("bit",))
+    assert name is not None and tool is not None and bit is not None
+    if bit not in KNOWN_BITS:
+        ctx.fail(("bit",), f"unknown bit {bit!r} (allowed: {' | '.join(KNOWN_BITS)})")
+    if tool not in KNOWN_TOOLS and root is not None and _tool_file(root, tool) is None:
+        ctx.fail(("tool",), f"unknown tool {tool!r}: neither a known preset "
+                 f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file {root / tool}")
+    wob_default = _get_positive(ctx, doc, ("wob_klbf",), required=False)
+    description = ""
+    if "description" in doc:
+        if not isinstance(doc["description"], str):
+            ctx.fail(("description",), f"must be a string, got {_type_name(doc['description'])}")
+        description = doc["description"]
+
+    sensors = _parse_sensors(ctx, doc)
+    events = _parse_events(ctx, doc, sensors, wob_default)
+    return Campaign(name=name, tool=tool, bit=bit, wob_klbf=wob_default, sensors=sensors,
+                    events=events, root=root, description=description)
+
+
+def _parse_sensors(ctx: _TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor]:
+    if "sensors" not in doc:
+        ctx.fail(("sensors",), "required table is missing (one [sensors.<name>] per sensor)")
+    table = doc["sensors"]
+    if not isinstance(table, dict):
+        ctx.fail(("sensors",), f"must be a table, got {_type_name(table)}")
+    if not table:
+        ctx.fail(("sensors",), "at least one sensor is required")
+    sensors: dict[str, Sensor] = {}
+    for sname, spec in table.items():
+        path: tuple[str | int, ...] = ("sensors", sname)
+        if not _SENSOR_NAME_RE.fullmatch(sname):
+            ctx.fail(path, "sensor names may only use letters, digits, '_' and '-'")
+        if not isinstance(spec, dict):
+            ctx.fail(path, f"must be a table, got {_type_name(spec)}")
+        _check_keys(ctx, spec, path, _SENSOR_KEYS)
+        if "dof" not in spec:
+            ctx.fail(path + ("dof",), "required key is missing")
+        dof = spec["dof"]
+        if isinstance(dof, bool) or not isinstance(dof, int):
+            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {_type_name(dof)} {dof!r}")
+        if not 1 <= dof <= 7:
+            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {dof}")
+        rate = _get_positive(ctx, spec, path + ("rate_hz",))
+        range_g = _get_positive(ctx, spec, path + ("range_g",))
+        lowpass = _get_positive(ctx, spec, path + ("lowpass_hz",), required=False)
+        assert rate is not None and range_g is not None
+        if lowpass is not None and lowpass >= rate / 2:
+            ctx.fail(path + ("lowpass_hz",),
+                     f"must be below the Nyquist frequency rate_hz/2 = {rate / 2:g} Hz, "
+                     f"got {lowpass:g}")
+        sensors[sname] = Sensor(name=sname, dof=dof, rate_hz=rate, range_g=range_g,
+                                lowpass_hz=lowpass)
+    return sensors
+
+
+def _parse_events(ctx: _TomlContext, doc: Mapping[str, Any], sensors: Mapping[str, Sensor],
+                  wob_default: float | None) -> list[Event]:
+    if "events" not in doc:
+        ctx.fail(("events",), "required array is missing (one [[events]] table per event)")
+    items = doc["events"]
+    if not isinstance(items, list):
+        ctx.fail(("events",), f"must be an array of tables ([[events]]), got {_type_name(items)}")
+    if not items:
+        ctx.fail(("events",), "at least one event is required")
+    events: list[Event] = []
+    first_index: dict[str, int] = {}
+    for i, spec in enumerate(items):
+        path: tuple[str | int, ...] = ("events", i)
+        if not isinstance(spec, dict):
+            ctx.fail(path, f"must be a table, got {_type_name(spec)}")
+        event_id = _get_str(ctx, spec, path + ("id",))
+        assert event_id is not None
+        label = f" (event {event_id!r})"
+        _check_keys(ctx, spec, path, _EVENT_KEYS, label)
+        if event_id in first_index:
+            ctx.fail(path + ("id",), f"duplicate event id {event_id!r}, already used by "
+                     f"events[{first_index[event_id]}]", label)
+        first_index[event_id] = i
+        flow = _get_positive(ctx, spec, path + ("flow_gpm",), label=label)
+        wob = _get_positive(ctx, spec, path + ("wob_klbf",), required=False, label=label)
+        if wob is None:
+            if wob_default is None:
+                ctx.fail(path + ("wob_klbf",), "missing, and the campaign has no default "
+                         "wob_klbf", label)
+            wob = wob_default
+        file = _get_str(ctx, spec, path + ("file",), required=False, label=label)
+        features = _parse_features(ctx, spec, path, sensors, label)
+        reference = _parse_reference(ctx, spec, path, label)
+        if file is None and not features:
+            ctx.fail(path, "needs a time-series `file`, or `features` (summary-only event), "
+                     "or both; it has neither", label)
+        assert flow is not None and wob is not None
+        events.append(Event(id=event_id, flow_gpm=flow, wob_klbf=wob, file=file,
+                            features=features, reference=reference))
+    if any(ev.file is not None for ev in events):
+        rates = {s.rate_hz for s in sensors.values()}
+        if len(rates) > 1:
+            first = next(iter(sensors.values()))
+            for s in sensors.values():
+                if s.rate_hz != first.rate_hz:
+                    ctx.fail(("sensors", s.name, "rate_hz"),
+                             f"{s.rate_hz:g} Hz differs from sensors.{first.name}.rate_hz = "
+                             f"{first.rate_hz:g} Hz, but event CSVs share one time_s column")
+    return events
+
+
+def _parse_features(ctx: _TomlContext, spec: Mapping[str, Any], path: tuple[str | int, ...],
+                    sensors: Mapping[str, Sensor], label: str) -> dict[str, float]:
+    if "features" not in spec:
+        return {}
+    table = spec["features"]
+    if not isinstance(table, dict):
+        ctx.fail(path + ("features",), f"must be a table, got {_type_name(table)}", label)
+    features: dict[str, float] = {}
+    for key in table:
+        kpath = path + ("features", key)
+        if _split_feature(key, sensors) is None:
+            ctx.fail(kpath, f"feature keys are <sensor>_<feature> with a declared sensor "
+                     f"({', '.join(sensors)}) and a feature in {{{', '.join(FEATURES)}}}",
+                     label)
+        value = _get_number(ctx, table, kpath, label=label)
+        assert value is not None
+        if value < 0:
+            ctx.fail(kpath, f"must be >= 0, got {value!r}", label)
+        features[key] = value
+    return features
+
+
+def _parse_reference(ctx: _TomlContext, spec: Mapping[str, Any], path: tuple[str | int, ...],
+                     label: str) -> dict[str, Any]:
+    if "reference" not in spec:
+        return {}
+    table = spec["reference"]
+    if not isinstance(table, dict):
+        ctx.fail(path + ("reference",), f"must be a table, got {_type_name(table)}", label)
+    for key, value in table.items():
+        if not isinstance(value, str | int | float | bool):
+            ctx.fail(path + ("reference", key),
+                     f"must be a string, number or boolean, got {_type_name(value)}", label)
+    return dict(table)
+
+
+# --------------------------------------------------------------------------------------------
+# Event CSVs
+
+
+def _time_problem(t: np.ndarray, rate_hz: float) -> tuple[int, str] | None:
+    """First sample index whose time breaks monotonicity or the uniform grid, with the reason.
+
+    The grid is anchored at the first sample: sample i must sit within
+    ``RATE_TOLERANCE * i * dt + min(TIME_RESOLUTION_S, dt/100)`` of ``t0 + i * dt`` (a clock
+    good to 1e-6 relative, printed with 7 decimals); dt/100 keeps a dropped sample visible at
+    rates where 1e-7 s would be a sizeable part of the period.
+    """
+    steps = np.diff(t)
+    bad = np.flatnonzero(~(steps > 0))
+    if bad.size:
+        k = int(bad[0]) + 1
+        return k, (f"time_s = {float(t[k])!r} s does not increase strictly (previous sample "
+                   f"{float(t[k - 1])!r} s)")
+    dt = 1.0 / rate_hz
+    idx = np.arange(t.size, dtype=np.float64)
+    expected = t[0] + idx * dt
+    with np.errstate(over="ignore", invalid="ignore"):
+        dev = np.abs(t - expected)
+        tol = (RATE_TOLERANCE * idx * dt + min(TIME_RESOLUTION_S, dt / 100)
+               + 4 * np.finfo(np.float64).eps * np.abs(t))
+        bad = np.flatnonzero(~(dev <= tol))
+    if bad.size:
+        k = int(bad[0])
+        msg = (f"time_s = {float(t[k])!r} s is off the uniform {rate_hz:g} Hz grid started "
+               f"at {float(t[0])!r} s: expected {float(expected[k]):.9g} s (deviation "
+               f"{dev[k]:.3g} s, tolerance {tol[k]:.3g} s)")
+        if k == 1:
+            msg += f"; the first step {steps[0]:.9g} s means {1 / steps[0]:.9g} Hz"
+        return k, msg
+    return None
+
+
+def _diagnose_rows(text: str, columns: list[str]) -> tuple[int, str] | None:
+    """Slow line-by-line scan for the first malformed data line (only run after a failure)."""
+    lines = _LINE_SPLIT_RE.split(text)
+    for lineno, line in enumerate(lines[1:], start=2):
+        fields = line.split(",")
+        if len(fields) != len(columns):
+            return lineno, f"expected {len(columns)} comma-separated fields, found {len(fields)}"
+        for col, token in zip(columns, fields, strict=True):
+            low = token.strip().lower()
+            if low in _NA_TOKENS:
+                return lineno, f"column {col!r}: missing value or NaN ({token!r})"
+            if low in _INF_TOKENS:
+                return lineno, f"column {col!r}: infinite value ({token!r})"
+            if not _NUMBER_RE.fullmatch(token):
+                return lineno, f"column {col!r}: non-numeric value {token!r}"
+            if not math.isfinite(float(token)):
+                return lineno, f"column {col!r}: value out of float range ({token!r})"
+    return None
+
+
+def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
+                    label: str) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
+    """Read and validate one event CSV; return the samples and the clipping masks."""
+    expected = ["time_s"] + [s.column for s in sensors.values()]
+    where = f"{path}{label}"
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise CampaignError(f"{where}: cannot read: {exc.strerror or exc}") from None
+    # Trailing blank lines are harmless; dropping them keeps "data row i = line i + 2".
+    raw = raw.rstrip(b" \t\r\n")
+    if not raw.strip():
+        raise CampaignError(f"{where}, line 1: empty file; expected the header "
+                            f"{','.join(expected)}")
+    head_and_body = _LINE_SPLIT_BYTES_RE.split(raw, maxsplit=1)
+    try:
+        # Only the header is decoded up front: pandas parses the bytes faster than a str.
+        header_text = head_and_body[0].decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise CampaignError(f"{where}, line 1: not valid UTF-8 text") from None
+    header = [h.strip() for h in header_text.split(",")]
+    if header[0] != "time_s":
+        raise CampaignError(f"{where}, line 1: the first column must be 'time_s', found "
+                            f"{header[0]!r} (expected header {','.join(expected)})")
+    for j, col in enumerate(header):
+        if col in header[:j]:
+            raise CampaignError(f"{where}, line 1: column {col!r} appears twice")
+        if col not in expected:
+            sensor = col[:-2] if col.endswith("_g") else None
+            why = (f"no sensor {sensor!r} is declared" if sensor
+                   else "sensor columns are named <sensor>_g")
+            raise CampaignError(f"{where}, line 1: unexpected column {col!r} ({why}; "
+                                f"expected columns {','.join(expected)})")
+    for col in expected:
+        if col not in header:
+            raise CampaignError(f"{where}, line 1: missing column {col!r} for sensor "
+                                f"{col[:-2]!r} declared in {CAMPAIGN_FILE}")
+    if len(head_and_body) < 2:
+        raise CampaignError(f"{where}, line 2: no samples after the header")
+
+    frame = None
+    try:
+        with warnings.catch_warnings():
+            # A first data row longer than the header only warns in pandas; here it is an error.
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            warnings.simplefilter("ignore", pd.errors.DtypeWarning)
+            frame = pd.read_csv(
+                io.BytesIO(raw), header=None, skiprows=1, names=header, index_col=False,
+                skip_blank_lines=False, quoting=csv.QUOTE_NONE, engine="c",
+            )
+    except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, OverflowError):
+        frame = None
+    values = None
+    if frame is not None and all(frame[c].dtype.kind in "fiu" for c in expected):
+        values = frame[expected].to_numpy(dtype=np.float64)
+        if not np.isfinite(values).all():
+            values = None
+    if values is None:
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            line = len(_LINE_SPLIT_BYTES_RE.split(raw[: exc.start]))
+            raise CampaignError(f"{where}, line {line}: not valid UTF-8 text") from None
+        problem = _diagnose_rows(text, header)
+        if problem is not None:
+            raise CampaignError(f"{where}, line {problem[0]}: {problem[1]}")
+        # Every token is a finite decimal number, yet pandas balked (e.g. integers beyond
+        # 64 bits): parse in Python, slow but exact, rather than reject a valid file.
+        rows = _LINE_SPLIT_RE.split(text)[1:]
+        table = np.array([[float(tok) for tok in row.split(",")] for row in rows],
+                         dtype=np.float64).reshape(len(rows), len(header))
+        values = table[:, [header.index(c) for c in expected]]
+    if values.shape[0] < 2:
+        raise CampaignError(f"{where}, line {values.shape[0] + 2}: at least 2 samples are "
+                            f"needed to check the sampling rate, found {values.shape[0]}")
+
+    rate = next(iter(sensors.values())).rate_hz
+    problem = _time_problem(values[:, 0], rate)
+    if problem is not None:
+        raise CampaignError(f"{where}, line {problem[0] + 2}: {problem[1]}")
+
+    data = pd.DataFrame(values, columns=expected)
+    clipped = {s.name: np.abs(values[:, j + 1]) >= s.range_g
+               for j, s in enumerate(sensors.values())}
+    return data, clipped
+
+
+# --------------------------------------------------------------------------------------------
+# Public entry points
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read and validate a campaign folder.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The campaign folder (holding ``campaign.toml``) or the TOML file itself.
+
+    Returns
+    -------
+    Campaign
+        With every event's CSV read into ``Event.data`` (float64) and clipping masks in
+        ``Event.clipped``.
+
+    Raises
+    ------
+    CampaignError
+        On any violation of the format; the message names the file and the line or key.
+
+    Warns
+    -----
+    ClippedSamplesWarning
+        For each event CSV holding samples at or beyond a sensor's ``range_g``.
+    """
+    path = Path(path)
+    try:
+        is_dir = path.is_dir()
+    except (OSError, ValueError):
+        is_dir = False
+    toml_path = path / CAMPAIGN_FILE if is_dir else path
+    root = toml_path.parent
+    try:
+        raw = toml_path.read_bytes()
+    except FileNotFoundError:
+        if is_dir:
+            raise CampaignError(f"{toml_path}: missing; a campaign folder must hold "
+                                f"{CAMPAIGN_FILE}") from None
+        raise CampaignError(f"{toml_path}: no such campaign folder or file") from None
+    except (OSError, ValueError) as exc:
+        raise CampaignError(f"{toml_path}: cannot read: {exc}") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise CampaignError(f"{toml_path}, line {line}: not valid UTF-8 text") from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        if "line" not in msg:
+            msg += f" (line {text.count(chr(10)) + 1}, end of file)"
+        raise CampaignError(f"{toml_path}: TOML syntax error: {msg}") from None
+    except RecursionError:
+        raise CampaignError(f"{toml_path}: TOML syntax error: nesting too deep") from None
+
+    ctx = _TomlContext(toml_path, text)
+    campaign = _parse_document(doc, ctx, root)
+    for i, event in enumerate(campaign.events):
+        if event.file is None:
+            continue
+        label = f" (event {event.id!r})"
+        csv_path = root / event.file
+        try:
+            exists = csv_path.is_file()
+        except (OSError, ValueError):
+            exists = False
+        if not exists:
+            ctx.fail(("events", i, "file"), f"CSV file not found: {csv_path}", label)
+        event.data, event.clipped = _read_event_csv(csv_path, campaign.sensors, label)
+        if event.n_clipped:
+            per_sensor = ", ".join(f"{name}: {int(np.count_nonzero(m))}"
+                                   for name, m in event.clipped.items() if m.any())
+            warnings.warn(
+                f"{csv_path}{label}: {event.n_clipped} samples at or beyond the sensor range "
+                f"({per_sensor}); flagged in Event.clipped, do not trust their values",
+                ClippedSamplesWarning, stacklevel=2,
+            )
+    return campaign
+
+
+def _toml_str(text: str) -> str:
+    out = ['"']
+    escapes = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
+               "\r": "\\r"}
+    for ch in text:
+        if ch in escapes:
+            out.append(escapes[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    out.append('"')
+    return "".join(out)
+
+
+def _toml_value(value: Any) -> str:
+    # Only the types a campaign holds; TOML spells bool lowercase and float specials bare.
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return _toml_str(value)
+    if isinstance(value, Mapping):
+        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
+        return f"{{ {items} }}" if items else "{}"
+    raise CampaignError(f"cannot write a {type(value).__name__} value to TOML: {value!r}")
+
+
+def _toml_key(key: str) -> str:
+    return key if _BARE_KEY_RE.fullmatch(key) else _toml_str(key)
+
+
+def _as_number(value: Any) -> int | float:
+    # numpy scalars would otherwise reach the writer as unknown types.
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _campaign_document(campaign: Campaign, tool: str,
+                       files: Mapping[str, str]) -> tuple[dict[str, Any], str]:
+    """The campaign as a TOML-shaped dict (for validation) and as TOML text."""
+    doc: dict[str, Any] = {"name": campaign.name, "tool": tool, "bit": campaign.bit}
+    if campaign.wob_klbf is not None:
+        doc["wob_klbf"] = float(_as_number(campaign.wob_klbf))
+    if campaign.description:
+        doc["description"] = campaign.description
+    doc["sensors"] = {}
+    for key, s in campaign.sensors.items():
+        spec: dict[str, Any] = {"dof": int(_as_number(s.dof)),
+                                "rate_hz": _as_number(s.rate_hz),
+                                "range_g": _as_number(s.range_g)}
+        if s.lowpass_hz is not None:
+            spec["lowpass_hz"] = _as_number(s.lowpass_hz)
+        doc["sensors"][key] = spec
+    doc["events"] = []
+    for ev in campaign.events:
+        spec = {"id": ev.id, "flow_gpm": float(_as_number(ev.flow_gpm))}
+        if campaign.wob_klbf is None or ev.wob_klbf != campaign.wob_klbf:
+            spec["wob_klbf"] = float(_as_number(ev.wob_klbf))
+        if ev.id in files:
+            spec["file"] = files[ev.id]
+        if ev.features:
+            spec["features"] = {k: float(_as_number(v)) for k, v in ev.features.items()}
+        if ev.reference:
+            spec["reference"] = {k: _as_number(v) for k, v in ev.reference.items()}
+        doc["events"].append(spec)
+
+    lines = ["# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."]
+    for key in ("name", "tool", "bit", "wob_klbf", "description"):
+        if key in doc:
+            lines.append(f"{key} = {_toml_value(doc[key])}")
+    for key, spec in doc["sensors"].items():
+        lines += ["", f"[sensors.{_toml_key(key)}]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
+    for spec in doc["events"]:
+        lines += ["", "[[events]]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
+    return doc, "\n".join(lines) + "\n"
+
+
+def _safe_relative(name: str) -> bool:
+    p = Path(name)
+    return not p.is_absolute() and ".." not in p.parts and bool(p.parts)
+
+
+def _event_values(data: pd.DataFrame, sensors: Mapping[str, Sensor], label: str) -> np.ndarray:
+    """Check an event's samples as load_campaign would; return them in file column order."""
+    columns = ["time_s"] + [s.column for s in sensors.values()]
+    extra = [c for c in data.columns if c not in columns]
+    missing = [c for c in columns if c not in data.columns]
+    if extra or missing:
+        raise CampaignError(f"event{label}: data columns must be {', '.join(columns)}"
+                            f"{'; unexpected ' + ', '.join(map(str, extra)) if extra else ''}"
+                            f"{'; missing ' + ', '.join(missing) if missing else ''}")
+    values = data[columns].to_numpy(dtype=np.float64)
+    if values.shape[0] < 2:
+        raise CampaignError(f"event{label}: data needs at least 2 samples")
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        raise CampaignError(f"event{label}: data row {int(bad[0])} holds NaN or infinity")
+    problem = _time_problem(values[:, 0], next(iter(sensors.values())).rate_hz)
+    if problem is not None:
+        raise CampaignError(f"event{label}: data row {problem[0]}: {problem[1]}")
+    return values
+
+
+def _write_event_csv(path: Path, values: np.ndarray, sensors: Mapping[str, Sensor]) -> None:
+    columns = ["time_s"] + [s.column for s in sensors.values()]
+    rate = next(iter(sensors.values())).rate_hz
+    # 7 decimals as in the format's example; more when the period needs them (> 10 kHz), so
+    # the rounding stays far inside the loader's time tolerance.
+    decimals = max(7, math.ceil(math.log10(rate)) + 3)
+    time_text = [f"{t:.{decimals}f}" for t in values[:, 0].tolist()]
+    # repr is the shortest string that reads back to the same float64: exact round trip.
+    cols = [time_text] + [list(map(repr, values[:, j].tolist()))
+                          for j in range(1, values.shape[1])]
+    body = "\n".join(map(",".join, zip(*cols, strict=True)))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(",".join(columns) + "\n" + body + "\n", encoding="utf-8", newline="\n")
+
+
+def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
+    """Write a campaign folder that :func:`load_campaign` reads back equal.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign. Events with ``data`` get a CSV named by ``Event.file`` (or
+        ``<id>.csv`` when it has none or it points outside the folder).
+    folder : str or pathlib.Path
+        Destination, created if needed; existing files of the same names are overwritten.
+
+    Returns
+    -------
+    pathlib.Path
+        ``folder``, ready for :func:`load_campaign`.
+
+    Raises
+    ------
+    CampaignError
+        If the campaign would not load back: any rule of the format broken (checked before
+        anything is written), an event with ``file`` but no ``data``, two events writing the
+        same file.
+
+    Notes
+    -----
+    Accelerations are written exactly (shortest float64 repr); ``time_s`` with 7 decimals
+    (see the module docstring). A tool given as a preset file relative to ``campaign.root`` is
+    copied next to the new ``campaign.toml``; one outside it is referenced by absolute path.
+    """
+    folder = Path(folder)
+    for key, sensor in campaign.sensors.items():
+        if sensor.name != key:
+            raise CampaignError(f"sensors[{key!r}]: Sensor.name is {sensor.name!r}, "
+                                f"it must equal its key")
+
+    tool = campaign.tool
+    tool_source: Path | None = None
+    if tool not in KNOWN_TOOLS:
+        base = campaign.root if campaign.root is not None else Path.cwd()
+        tool_source = _tool_file(base, tool)
+        if tool_source is None:
+            raise CampaignError(f"tool {tool!r}: neither a known preset "
+                                f"({', '.join(KNOWN_TOOLS)}) nor an existing file {base / tool}")
+        if not _safe_relative(tool):
+            tool, tool_source = str(tool_source.resolve()), None
+
+    files: dict[str, str] = {}
+    owners: dict[str, str] = {}
+    for ev in campaign.events:
+        if ev.data is None:
+            if ev.file is not None:
+                raise CampaignError(f"event {ev.id!r}: file {ev.file!r} is set but data is "
+                                    f"None; nothing to write")
+            continue
+        name = ev.file if ev.file is not None and _safe_relative(ev.file) else (
+            re.sub(r"[^A-Za-z0-9._-]", "_", ev.id) + ".csv")
+        if name in owners:
+            raise CampaignError(f"events {owners[name]!r} and {ev.id!r} would both be written "
+                                f"to {name}")
+        owners[name] = ev.id
+        files[ev.id] = name
+
+    doc, text = _campaign_document(campaign, tool, files)
+    # Same validator as load_campaign, so nothing is written that would not load back.
+    _parse_document(doc, _TomlContext(f"campaign {campaign.name!r}", None), None)
+
+    # All samples are checked before the first byte is written: no half-written folder.
+    for ev in campaign.events:
+        if ev.id in files:
+            _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for ev in campaign.events:
+        if ev.id in files:
+            values = _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+            _write_event_csv(folder / files[ev.id], values, campaign.sensors)
+    if tool_source is not None:
+        dest = folder / tool
+        if not (dest.exists() and dest.resolve() == tool_source.resolve()):
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(tool_source, dest)
+    (folder / CAMPAIGN_FILE).write_text(text, encoding="utf-8", newline="\n")
+    return folder
+
+
+#: Keys of :func:`thesis_campaigns`, in the dissertation's order.
+THESIS_CAMPAIGNS: tuple[str, ...] = ("7in-cde", "7in-rc", "9.5in-pdc")
+
+
+def _package_data() -> Path:
+    return Path(__file__).resolve().parent / "data"
+
+
+def thesis_campaigns() -> dict[str, Campaign]:
+    """The dissertation's published field table as three summary-only campaigns.
+
+    Each event carries ``features`` ``x1_peak_mean_g`` and, where the field table reports it,
+    ``x1_impact_hz``; ``reference`` keeps the dissertation's own simulation of the event
+    (``sim_peak_g``, ``sim_impact_hz`` when reported, ``sim_behaviour``), the behaviour seen in
+    the field (``field_behaviour``), the printed excitation frequency (``f_exc_hz``), the test
+    id (``test``) and, where the printed table is odd, a ``note``.
+
+    Returns
+    -------
+    dict of str to Campaign
+        Keys ``"7in-cde"`` (10 events), ``"7in-rc"`` (6), ``"9.5in-pdc"`` (12); a fresh copy
+        on every call. Sensors: ``x1`` (dof 1) and ``x5`` (dof 5), 1024 Hz, 250 g.
+    """
+    base = _package_data() / "campaigns"
+    return {key: load_campaign(base / key) for key in THESIS_CAMPAIGNS}
