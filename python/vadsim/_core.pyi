@@ -1,0 +1,177 @@
+"""Type stub of the C++ core (cpp/bindings/bindings.cpp)."""
+
+import enum
+
+import numpy as np
+import numpy.typing as npt
+
+N_DOF: int
+N_SURFACES: int
+
+class SolverError(RuntimeError): ...
+
+class ContactLawKind(enum.Enum):
+    KelvinVoigt = 0
+    KelvinVoigtNoTension = 1
+    HuntCrossley = 2
+
+class Method(enum.Enum):
+    BDF = 0
+    Adams = 1
+
+class Record(enum.Enum):
+    None_ = 0
+    Window = 1
+    All = 2
+
+class Params:
+    law: ContactLawKind
+    m1: float
+    m2: float
+    m3: float
+    m4: float
+    m5: float
+    m6: float
+    m7: float
+    k3: float
+    k4: float
+    k5: float
+    k6: float
+    k7: float
+    c3: float
+    c4: float
+    c5: float
+    c6: float
+    c7: float
+    kS: float
+    kI: float
+    kOn: float
+    kOff: float
+    kR: float
+    cS: float
+    cI: float
+    cOn: float
+    cOff: float
+    cR: float
+    cD: float
+    Fo: float
+    alpha: float
+    beta: float
+    phi: float
+    psi: float
+    L1: float
+    L2: float
+    L3: float
+    LS: float
+    LI: float
+    LOn: float
+    LR: float
+    l0: float
+    wob: float
+    hc_n: float
+    hc_alpha: float
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+    def gap(self) -> float: ...
+    def excitation_hz(self, flow_gpm: float) -> float: ...
+    def get(self, name: str) -> float: ...
+    def set(self, name: str, value: float) -> None: ...
+    def __getstate__(self) -> dict[str, float]: ...
+    def __setstate__(self, state: dict[str, float]) -> None: ...
+
+def param_table() -> list[tuple[str, str, str, str]]: ...
+
+class ExtraForce:
+    @property
+    def name(self) -> str: ...
+
+class HydraulicForce(ExtraForce):
+    def __init__(self, dof: int, c: float) -> None: ...
+
+class CoulombFriction(ExtraForce):
+    def __init__(self, dof_a: int, dof_b: int, force: float, v_eps: float) -> None: ...
+
+class SpringDashpot(ExtraForce):
+    def __init__(self, dof_a: int, dof_b: int, k: float, c: float) -> None: ...
+
+class Model:
+    def __init__(self, params: Params, extras: list[ExtraForce] = ...) -> None: ...
+    @property
+    def params(self) -> Params: ...
+    @property
+    def static_positions(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def x_top(self) -> float: ...
+    def indentation(self, surface: int, y: npt.ArrayLike) -> float: ...
+    def rhs(
+        self, t: float, flow_gpm: float, y: npt.ArrayLike, modes: list[int]
+    ) -> npt.NDArray[np.float64]: ...
+    def jacobian(
+        self, t: float, flow_gpm: float, y: npt.ArrayLike, modes: list[int]
+    ) -> npt.NDArray[np.float64]: ...
+    def energy(self, y: npt.ArrayLike, modes: list[int]) -> float: ...
+
+class RunOptions:
+    flow_gpm: float
+    cycles: float
+    analyse_cycles: float
+    method: Method
+    rtol: float
+    atol: float
+    max_step: float
+    record: Record
+    output_rate_hz: float
+    summary_rate_hz: float
+    peak_window_s: float
+    max_steps: int
+    max_events: int
+    initial_state: npt.NDArray[np.float64] | None
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+
+class SolverStats:
+    steps: int
+    rhs_evals: int
+    jac_evals: int
+    lin_setups: int
+    err_test_fails: int
+    nonlin_iters: int
+    nonlin_conv_fails: int
+    root_evals: int
+    reinits: int
+
+class WindowSummary:
+    t0: float
+    t1: float
+    rate_hz: float
+    samples: int
+    onsets: list[int]
+    impulse_mean: float
+    impulse_pos: float
+    window_peaks: npt.NDArray[np.float64]
+
+class RunResult:
+    flow_gpm: float
+    f_exc_hz: float
+    t_end: float
+    t: npt.NDArray[np.float64]
+    x: npt.NDArray[np.float64]
+    v: npt.NDArray[np.float64]
+    a: npt.NDArray[np.float64]
+    fc: npt.NDArray[np.float64]
+    fh: npt.NDArray[np.float64]
+    poincare_t: npt.NDArray[np.float64]
+    poincare: npt.NDArray[np.float64]
+    summary: WindowSummary
+    stats: SolverStats
+    y_end: npt.NDArray[np.float64]
+    @property
+    def event_t(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def event_surface(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def event_kind(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def event_rel_velocity(self) -> npt.NDArray[np.float64]: ...
+
+def simulate(model: Model, options: RunOptions) -> RunResult: ...
