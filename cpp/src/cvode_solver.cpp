@@ -11,22 +11,34 @@ namespace vadsim {
 
 namespace {
 
-/// @brief LU with partial pivoting for the 14x14 Newton matrix, with sizes known at compile
-/// time so the loops unroll. SUNDIALS' generic dense LU (built unoptimised by Debian) was a
-/// third of a run's instructions; Eigen's general path for it was still 10 %.
-struct FixedDenseLU {
-  double lu[kState][kState];  // row-major copy of the factors
-  int perm[kState];
+/// @brief Newton solves through the 7x7 Schur complement of the second-order structure.
+///
+/// With y = [u; v] the Jacobian is [[0, I], [K, C]], so CVODE's Newton matrix is
+/// A = I - g J = [[I, -g I], [A21, A22]] with A21 = -g K, A22 = I - g C. Eliminating the
+/// first block row leaves S dv = b2 - A21 b1 with S = A22 + g A21, then du = b1 + g dv:
+/// one 7x7 LU instead of a 14x14 one. Sizes are compile-time so the loops unroll; SUNDIALS'
+/// generic dense LU (built unoptimised by Debian) was a third of a run's instructions.
+struct SchurLU {
+  static constexpr int n = kDof;
+  double lu[n][n];   // factors of S, row-major
+  double a21[n][n];  // A21, row-major
+  double gamma = 0;
+  int perm[n];
 
-  /// @brief Factor A (column-major, as SUNDIALS stores it); false on a zero pivot.
+  /// @brief Factor from A (column-major, as SUNDIALS stores it); false on a zero pivot.
   bool factor(const double* a) {
-    for (int i = 0; i < kState; ++i)
-      for (int j = 0; j < kState; ++j) lu[i][j] = a[j * kState + i];
-    for (int i = 0; i < kState; ++i) perm[i] = i;
-    for (int k = 0; k < kState; ++k) {
+    auto at = [a](int i, int j) { return a[j * kState + i]; };
+    gamma = -at(0, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        a21[i][j] = at(n + i, j);
+        lu[i][j] = at(n + i, n + j) + gamma * a21[i][j];
+      }
+    for (int i = 0; i < n; ++i) perm[i] = i;
+    for (int k = 0; k < n; ++k) {
       int p = k;
       double best = std::abs(lu[k][k]);
-      for (int i = k + 1; i < kState; ++i) {
+      for (int i = k + 1; i < n; ++i) {
         const double v = std::abs(lu[i][k]);
         if (v > best) {
           best = v;
@@ -35,31 +47,40 @@ struct FixedDenseLU {
       }
       if (!(best > 0)) return false;
       if (p != k) {
-        for (int j = 0; j < kState; ++j) std::swap(lu[k][j], lu[p][j]);
+        for (int j = 0; j < n; ++j) std::swap(lu[k][j], lu[p][j]);
         std::swap(perm[k], perm[p]);
       }
       const double inv = 1.0 / lu[k][k];
-      for (int i = k + 1; i < kState; ++i) {
+      for (int i = k + 1; i < n; ++i) {
         const double l = lu[i][k] * inv;
         lu[i][k] = l;
-        if (l != 0.0)
-          for (int j = k + 1; j < kState; ++j) lu[i][j] -= l * lu[k][j];
+        for (int j = k + 1; j < n; ++j) lu[i][j] -= l * lu[k][j];
       }
     }
     return true;
   }
 
+  /// @brief x = A^{-1} b; x and b may be the same array.
   void solve(const double* b, double* x) const {
-    double y[kState];
-    for (int i = 0; i < kState; ++i) {
-      double s = b[perm[i]];
+    double r[n], y[n], dv[n];
+    for (int i = 0; i < n; ++i) {
+      double s = b[n + i];
+      for (int j = 0; j < n; ++j) s -= a21[i][j] * b[j];
+      r[i] = s;
+    }
+    for (int i = 0; i < n; ++i) {
+      double s = r[perm[i]];
       for (int j = 0; j < i; ++j) s -= lu[i][j] * y[j];
       y[i] = s;
     }
-    for (int i = kState - 1; i >= 0; --i) {
+    for (int i = n - 1; i >= 0; --i) {
       double s = y[i];
-      for (int j = i + 1; j < kState; ++j) s -= lu[i][j] * x[j];
-      x[i] = s / lu[i][i];
+      for (int j = i + 1; j < n; ++j) s -= lu[i][j] * dv[j];
+      dv[i] = s / lu[i][i];
+    }
+    for (int i = 0; i < n; ++i) {
+      x[i] = b[i] + gamma * dv[i];
+      x[n + i] = dv[i];
     }
   }
 };
@@ -69,16 +90,13 @@ SUNLinearSolver_ID fixed_lu_id(SUNLinearSolver) { return SUNLINEARSOLVER_CUSTOM;
 int fixed_lu_init(SUNLinearSolver) { return SUNLS_SUCCESS; }
 
 int fixed_lu_setup(SUNLinearSolver S, SUNMatrix A) {
-  auto* c = static_cast<FixedDenseLU*>(S->content);
+  auto* c = static_cast<SchurLU*>(S->content);
   // A zero pivot is recoverable: CVODE retries with a smaller step.
   return c->factor(SM_DATA_D(A)) ? SUNLS_SUCCESS : SUNLS_LUFACT_FAIL;
 }
 
 int fixed_lu_solve(SUNLinearSolver S, SUNMatrix, N_Vector x, N_Vector b, sunrealtype) {
-  const auto* c = static_cast<const FixedDenseLU*>(S->content);
-  double rhs[kState];
-  std::copy(NV_DATA_S(b), NV_DATA_S(b) + kState, rhs);  // x and b may be the same vector
-  c->solve(rhs, NV_DATA_S(x));
+  static_cast<const SchurLU*>(S->content)->solve(NV_DATA_S(b), NV_DATA_S(x));
   return SUNLS_SUCCESS;
 }
 
@@ -86,7 +104,7 @@ sunindextype fixed_lu_lastflag(SUNLinearSolver) { return 0; }
 
 int fixed_lu_free(SUNLinearSolver S) {
   if (!S) return SUNLS_SUCCESS;
-  delete static_cast<FixedDenseLU*>(S->content);
+  delete static_cast<SchurLU*>(S->content);
   S->content = nullptr;
   SUNLinSolFreeEmpty(S);
   return SUNLS_SUCCESS;
@@ -193,7 +211,7 @@ SUNLinearSolver make_fixed_lu(SUNContext ctx) {
   S->ops->solve = fixed_lu_solve;
   S->ops->lastflag = fixed_lu_lastflag;
   S->ops->free = fixed_lu_free;
-  S->content = new FixedDenseLU();
+  S->content = new SchurLU();
   return S;
 }
 

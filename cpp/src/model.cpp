@@ -64,6 +64,8 @@ Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
     const int a = 2 + i, b = (i < 4) ? 3 + i : -1;  // k3: x3-x4 ... k7: x7-support
     add_link(k_lin_, a, b, ks[i]);
     add_link(c_lin_, a, b, cs[i]);
+    link_k_[i] = ks[i];
+    link_c_[i] = cs[i];
   }
   f_static_ = -k_lin_ * xs_;
   f_static_[6] += p_.k7 * x_top_;
@@ -127,8 +129,16 @@ void Model::evaluate(double t, double flow_gpm, const Eigen::Ref<const State>& y
                      const Modes& modes, Evaluation& out) const {
   const auto u = y.head<kDof>();
   const auto v = y.tail<kDof>();
-  // The string's preload at rest (f_static_) is a constant; the contacts carry their full force.
-  out.f.noalias() = f_static_ - k_lin_ * u - c_lin_ * v;
+  // The string is a chain (housing-motor-sub-LWD-MWD-support): link forces, not a dense 7x7
+  // product. Its preload at rest (f_static_) is a constant; the contacts carry their full force.
+  out.f = f_static_;
+  for (int i = 0; i < 4; ++i) {
+    const int a = 2 + i, b = 3 + i;
+    const double F = link_k_[i] * (u[a] - u[b]) + link_c_[i] * (v[a] - v[b]);
+    out.f[a] -= F;
+    out.f[b] += F;
+  }
+  out.f[6] -= link_k_[4] * u[6] + link_c_[4] * v[6];
   for (int s = 0; s < kSurfaces; ++s) {
     double F = 0;
     if (modes[s] == ContactMode::Pushing) {

@@ -87,6 +87,7 @@ class Model {
   Vec7 inv_mass_;
   Mat7 k_lin_, c_lin_;  // the string's springs and dashpots (constant)
   Vec7 f_static_;       // the string's spring forces at rest (its preload)
+  double link_k_[5] = {}, link_c_[5] = {};  // k3..k7, c3..c7 of the chain's links
   Vec7 xs_;
   double x_top_ = 0;
   double rel23_static_ = 0;  // x2 - x3 at rest, m (the excitation's position argument)
