@@ -203,18 +203,83 @@ RunResult simulate(const Model& model, const RunOptions& opts) {
     }
   };
 
+  // A contact whose indentation is exactly zero when CVODE restarts has its root function
+  // switched off until it moves away from zero, and CVODE then turns it back on without
+  // reporting the crossing (e.g. a bit resting on the rock with zero force, pushed by the
+  // anvil's first impact). Two guards: such contacts get their mode from mode_at() at every
+  // restart, and after every step each mode is checked against the sign of its indentation,
+  // a disagreement being located by bisection on CVODE's interpolant.
+  const double tiny = 1e-13 * p.l0;
+  auto record_switch = [&](int s, ContactMode next, double te, const State& y) {
+    const ContactMode prev = w.modes[s];
+    if (next == prev) return;
+    EventKind kind;
+    if (prev == ContactMode::Open) kind = EventKind::Onset;
+    else if (next == ContactMode::Open) kind = EventKind::Release;
+    else kind = (next == ContactMode::Lifted) ? EventKind::Lift : EventKind::Relatch;
+    w.modes[s] = next;
+    r.events.push_back({te, s, kind, model.indentation_rate(s, y)});
+  };
+  auto resolve_boundaries = [&](double te, const State& y, const int* skip) {
+    for (int s = 0; s < kSurfaces; ++s) {
+      if ((skip && skip[s] != 0) || std::abs(model.indentation(s, y)) > tiny) continue;
+      record_switch(s, model.mode_at(s, y, te, opts.flow_gpm, w.modes), te, y);
+    }
+  };
+  auto contradicts = [&](int s, const Eigen::Ref<const State>& y) {
+    const double d = model.indentation(s, y);
+    return (w.modes[s] == ContactMode::Open) ? d > tiny : d < -tiny;
+  };
+  auto state_at = [&](double te) {
+    solver.interpolate(te, tmp);
+    return State(Eigen::Map<const State>(NV_DATA_S(tmp)));
+  };
+
   double t = 0.0;
   State y_seg = y0;
   double t_seg = 0.0;
   solver.restart(0.0, y0, r.t_end);
   long calls = 0, stalled = 0;
   while (true) {
+    const double t_prev = t;
     double tret = t;
     const int flag = solver.step(r.t_end, tret);
     if (++calls > opts.max_steps) {
       throw SolverError("CVode", tret, 0,
                         "step budget max_steps = " + std::to_string(opts.max_steps) +
                             " exhausted: the run is too stiff or chatters");
+    }
+    if (flag != CV_ROOT_RETURN) {
+      Eigen::Map<const State> yc(NV_DATA_S(solver.y()));
+      int missed = -1;
+      double t_cross = tret;
+      for (int s = 0; s < kSurfaces; ++s) {
+        if (!contradicts(s, yc)) continue;
+        double lo = t_prev, hi = tret;  // consistent at lo, not at hi
+        for (int it = 0; it < 200 && hi - lo > 4e-16 * std::max(1.0, std::abs(hi)); ++it) {
+          const double mid = 0.5 * (lo + hi);
+          (contradicts(s, state_at(mid)) ? hi : lo) = mid;
+        }
+        if (hi < t_cross || missed < 0) {
+          missed = s;
+          t_cross = hi;
+        }
+      }
+      if (missed >= 0) {
+        const State yx = state_at(t_cross);
+        emit(t_cross, t_seg, y_seg);
+        record_switch(missed,
+                      w.modes[missed] != ContactMode::Open ? ContactMode::Open
+                      : (model.pushes_only(missed) && model.push_indicator(missed, yx) < 0)
+                          ? ContactMode::Lifted
+                          : ContactMode::Pushing,
+                      t_cross, yx);
+        resolve_boundaries(t_cross, yx, nullptr);
+        y_seg = yx;
+        t = t_seg = t_cross;
+        solver.restart(t, y_seg, r.t_end);
+        continue;
+      }
     }
     emit(tret, t_seg, y_seg);
     stalled = (tret - t <= 1e-12 * std::max(1.0, std::abs(t))) ? stalled + 1 : 0;
@@ -225,29 +290,29 @@ RunResult simulate(const Model& model, const RunOptions& opts) {
     if (flag == CV_TSTOP_RETURN || t >= r.t_end) break;
     if (flag != CV_ROOT_RETURN) continue;
 
-    Eigen::Map<const State> yr(NV_DATA_S(solver.y()));
+    const State yr = Eigen::Map<const State>(NV_DATA_S(solver.y()));
     const int* found = solver.roots_found();
+    int handled[kSurfaces] = {};
     for (int s = 0; s < kSurfaces; ++s) {
       const int dir_d = found[s];
       const int dir_f = (w.n_roots > kSurfaces) ? found[kSurfaces + s] : 0;
       if (dir_d == 0 && dir_f == 0) continue;
-      const double dd = model.indentation_rate(s, yr);
+      handled[s] = 1;
       if (dir_d > 0 && w.modes[s] == ContactMode::Open) {
-        w.modes[s] = (model.pushes_only(s) && model.push_indicator(s, yr) < 0)
-                         ? ContactMode::Lifted
-                         : ContactMode::Pushing;
-        r.events.push_back({t, s, EventKind::Onset, dd});
+        record_switch(s,
+                      (model.pushes_only(s) && model.push_indicator(s, yr) < 0)
+                          ? ContactMode::Lifted
+                          : ContactMode::Pushing,
+                      t, yr);
       } else if (dir_d < 0 && w.modes[s] != ContactMode::Open) {
-        w.modes[s] = ContactMode::Open;
-        r.events.push_back({t, s, EventKind::Release, dd});
+        record_switch(s, ContactMode::Open, t, yr);
       } else if (dir_f < 0 && w.modes[s] == ContactMode::Pushing) {
-        w.modes[s] = ContactMode::Lifted;
-        r.events.push_back({t, s, EventKind::Lift, dd});
+        record_switch(s, ContactMode::Lifted, t, yr);
       } else if (dir_f > 0 && w.modes[s] == ContactMode::Lifted) {
-        w.modes[s] = ContactMode::Pushing;
-        r.events.push_back({t, s, EventKind::Relatch, dd});
+        record_switch(s, ContactMode::Pushing, t, yr);
       }
     }
+    resolve_boundaries(t, yr, handled);
     if (static_cast<long>(r.events.size()) > max_events) {
       throw SolverError("root-finding", t, 0,
                         "more than max_events = " + std::to_string(max_events) +

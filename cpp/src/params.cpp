@@ -87,6 +87,12 @@ void Params::validate() const {
           break;
       }
     }
+    // The static on-bottom state needs every support in the load path to carry the WOB.
+    if (!why && v == 0 && wob > 0) {
+      const std::string n = info.name;
+      if (n == "kR" || n == "kOn" || n == "k3" || n == "k4" || n == "k5" || n == "k6" || n == "k7")
+        why = "gives no static on-bottom equilibrium under wob > 0";
+    }
     if (why) {
       std::ostringstream os;
       os << "parameter " << info.name << " = " << v << " " << why << " (" << info.meaning << ", "
