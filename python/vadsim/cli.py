@@ -14,6 +14,8 @@ import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
+import numpy as np
+
 from vadsim.labels import regime_name
 from vadsim.presets import PRESETS, get_preset, param_table
 from vadsim.simulate import SURFACES, SimulationResult, SolverError, simulate
@@ -109,6 +111,237 @@ def _cmd_presets(args: argparse.Namespace) -> int:
     return 0
 
 
+def _flows(args: argparse.Namespace) -> list[float]:
+    from vadsim.sweep import flows_from_hz
+
+    if args.hz:
+        lo, hi, step = args.hz
+        return [float(q) for q in flows_from_hz(args.preset, _arange(lo, hi, step, "--hz"))]
+    lo, hi, step = args.flows
+    return [float(q) for q in _arange(lo, hi, step, "--flows")]
+
+
+def _arange(lo: float, hi: float, step: float, flag: str) -> list[float]:
+    if not (step > 0) or hi < lo:
+        raise ValueError(f"{flag} {lo:g} {hi:g} {step:g}: need FROM <= TO and STEP > 0")
+    n = int(round((hi - lo) / step)) + 1
+    return [lo + i * step for i in range(n) if lo + i * step <= hi + 1e-9 * max(1.0, abs(hi))]
+
+
+def _sweep_options(args: argparse.Namespace) -> dict:
+    return dict(
+        overrides=_parse_overrides(args.set or []), law=args.law, wob_klbf=args.wob,
+        cycles=args.cycles, analyse_cycles=args.analyse, mode=args.mode, gap_via=args.gap_via,
+        workers=args.workers, scheduler=args.scheduler, store=args.store,
+        progress=not args.quiet,
+    )
+
+
+def _finish_dataset(ds, args: argparse.Namespace) -> None:
+    from vadsim.sweep import save_dataset
+
+    if args.out:
+        save_dataset(ds, args.out)
+        print(f"saved {args.out}")
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from vadsim import thesis
+    from vadsim.sweep import sweep
+
+    t0 = time.perf_counter()
+    ds = sweep(args.preset, _flows(args), **_sweep_options(args))
+    elapsed = time.perf_counter() - t0
+    _finish_dataset(ds, args)
+    df = ds[["f_exc_hz", "z_spring", "z_impact", "z_off_bottom", "z_on_bottom", "scenario",
+             "x1_peak_mean_g", "x1_peak_std_g", "x5_peak_mean_g", "j_pos", "j_pos_kN",
+             "x1_impact_hz", "periodicity"]].to_dataframe()
+    if args.json:
+        print(df.reset_index().to_json(orient="records"))
+        return 0
+    with _pd_display():
+        print(df.round(3).to_string())
+    print(f"{ds.sizes['flow_gpm']} runs in {elapsed:.1f} s ({ds.attrs['mode']} mode)")
+    print("\nregimes along flow:")
+    print(thesis.regime_intervals(ds).to_string(index=False))
+    if args.plot:
+        from vadsim import plots
+
+        for kind, fn in (("peaks", plots.peaks_vs_flow), ("z", plots.z_vs_flow),
+                         ("j", plots.j_vs_flow)):
+            path = args.plot.replace(".png", f"-{kind}.png")
+            fn(ds, path=path)
+            print(f"figure {path}")
+    return 0
+
+
+def _cmd_map(args: argparse.Namespace) -> int:
+    from vadsim.sweep import sweep
+
+    axes = {args.param: _arange(*args.values, flag="--values") if args.steps is None
+            else list(np.linspace(args.values[0], args.values[1], args.steps))}
+    if args.param2:
+        axes[args.param2] = list(np.linspace(args.values2[0], args.values2[1], args.steps2))
+    t0 = time.perf_counter()
+    ds = sweep(args.preset, _flows(args), axes, **_sweep_options(args))
+    elapsed = time.perf_counter() - t0
+    _finish_dataset(ds, args)
+    n = int(np.prod([ds.sizes[d] for d in ds.scenario.dims]))
+    print(f"{n} runs in {elapsed:.1f} s ({n / elapsed:.1f} runs/s)")
+    counts = {int(k): int(v) for k, v in zip(*np.unique(ds.scenario.values,
+                                                         return_counts=True), strict=True)}
+    print("scenario counts:", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())))
+    k = np.unravel_index(int(np.nanargmax(ds.j_pos.values)), ds.j_pos.shape)
+    best = {d: float(ds[d].values[i]) for d, i in zip(ds.j_pos.dims, k, strict=True)}
+    print(f"max J* {float(ds.j_pos.values[k]):.2f} N/kg at {best}")
+    if args.plot and not args.param2:
+        from vadsim import plots
+
+        plots.regime_map(ds, path=args.plot.replace(".png", "-regimes.png"))
+        plots.j_map(ds, path=args.plot.replace(".png", "-j.png"))
+        print(f"figures {args.plot.replace('.png', '-regimes.png')}, "
+              f"{args.plot.replace('.png', '-j.png')}")
+    return 0
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from vadsim import design
+
+    common = dict(workers=args.workers, scheduler=args.scheduler, progress=not args.quiet,
+                  cycles=args.cycles, analyse_cycles=args.analyse)
+    if args.study in design.STUDIES:
+        ds = design.one_at_a_time(args.study, args.preset, steps=args.steps,
+                                  gap_via=args.gap_via, store=args.store, **common)
+        _finish_dataset(ds, args)
+        table = design.study_table(ds)
+        with _pd_display():
+            print(table.round(3).to_string())
+        j0 = table["j_max"].iloc[int(np.argmin(np.abs(table.index - _base_value(args))))]
+        print(f"max J* over the study: {table['j_max'].max():.2f} N/kg "
+              f"({table['j_max'].max() / j0 - 1:+.0%} vs the preset's value)")
+        if args.plot:
+            from vadsim import plots
+
+            plots.regime_map(ds, path=args.plot.replace(".png", "-regimes.png"))
+            plots.j_map(ds, path=args.plot.replace(".png", "-j.png"))
+        return 0
+    if args.study == "recommended":
+        res = design.compare_designs(design.RECOMMENDED, args.preset, gap_via=args.gap_via,
+                                     **common)
+        _print_design(res)
+        if args.plot:
+            from vadsim import plots
+
+            plots.design_comparison(res.original, res.changed, path=args.plot)
+        return 0
+    # optimise
+    def report(gen: int, score: float, best: dict) -> None:
+        print(f"  generation {gen}: score {score:.3f} at "
+              + ", ".join(f"{k}={v:.4g}" for k, v in best.items()), flush=True)
+
+    opt = design.optimise(args.preset, gap_via=args.gap_via, popsize=args.popsize,
+                          maxiter=args.maxiter, seed=args.seed, workers=args.workers,
+                          callback=report)
+    print(f"best design: {opt.best} (score {opt.score:.3f}, {len(opt.history)} designs, "
+          f"{opt.seconds:.0f} s)")
+    if opt.verified is not None:
+        _print_design(opt.verified)
+        if args.plot:
+            from vadsim import plots
+
+            plots.design_comparison(opt.verified.original, opt.verified.changed,
+                                    path=args.plot)
+    if args.out:
+        opt.history.to_csv(args.out, index=False)
+        print(f"saved every evaluated design to {args.out}")
+    return 0
+
+
+def _base_value(args: argparse.Namespace) -> float:
+    from vadsim import design
+
+    s = design.STUDIES[args.study]
+    return 1.0 if s.parameter == "gap_ratio" else get_preset(args.preset).params[s.parameter]
+
+
+def _print_design(res) -> None:
+    m0, m1 = res.metrics_original, res.metrics_changed
+    print(f"design {res.design} (gap via {res.gap_via})")
+    for name, m in (("original", m0), ("changed", m1)):
+        print(f"  {name:9s} max J* {m['j_max']:7.2f} N/kg ({m['j_max_kN']:.3f} kN) at "
+              f"{m['flow_at_max_gpm']:.0f} gal/min; operating range {m['range_from_gpm']:.0f}-"
+              f"{m['range_to_gpm']:.0f} gal/min; regime 1 up to {m['regime1_edge_gpm']:.0f}")
+    print(f"  max J* {res.j_ratio:+.0%}, operating range {res.range_ratio:+.0%}")
+
+
+def _cmd_thesis(args: argparse.Namespace) -> int:
+    from vadsim import thesis
+    from vadsim.sweep import sweep
+
+    ds = sweep("7in-cde", _arange(200, 650, 10, "--flows"), cycles=args.cycles,
+               analyse_cycles=args.analyse, mode=args.mode, workers=args.workers,
+               progress=not args.quiet)
+    with _pd_display():
+        print("Impact regimes of the 7in CDE flow sweep vs dissertation section 4.1:")
+        print(thesis.compare_regimes(ds).to_string(index=False))
+        print("\nMean x1 peaks (full resolution) vs the dissertation's simulated peaks:")
+        print(thesis.compare_peaks(ds).round(3).to_string(index=False))
+    k = int(np.nanargmax(ds.j_pos.values))
+    print(f"\nmax J* {float(ds.j_pos[k]):.2f} N/kg at {float(ds.flow_gpm[k]):.0f} gal/min, "
+          f"scenario {int(ds.scenario[k])}")
+    _finish_dataset(ds, args)
+    return 0
+
+
+class _pd_display:
+    def __enter__(self) -> None:
+        import pandas as pd
+
+        self._ctx = pd.option_context("display.width", 200, "display.max_columns", 30)
+        self._ctx.__enter__()
+
+    def __exit__(self, *exc: object) -> None:
+        self._ctx.__exit__(*exc)
+
+
+def _add_grid_options(p: argparse.ArgumentParser, default_flows: bool = True) -> None:
+    p.add_argument("preset", nargs="?", default="7in-cde",
+                   help="tool preset: " + ", ".join(PRESETS) + " (default 7in-cde)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--flows", type=float, nargs=3, metavar=("FROM", "TO", "STEP"),
+                   default=[200.0, 650.0, 10.0],
+                   help="flow axis in gal/min (default 200 650 10)")
+    g.add_argument("--hz", type=float, nargs=3, metavar=("FROM", "TO", "STEP"),
+                   help="flow axis given as excitation frequency in Hz, e.g. 21.3 69.3 0.5")
+    p.add_argument("--mode", default="independent", choices=["independent", "continuation"],
+                   help="independent: every run from rest; continuation: each flow starts "
+                   "from the previous flow's final state, as in a field flow sweep")
+    p.add_argument("--cycles", type=float, default=400, help="run length in cycles (400)")
+    p.add_argument("--analyse", type=float, default=200, help="steady window in cycles (200)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="override a parameter for every run (repeatable)")
+    p.add_argument("--law", default=None,
+                   choices=["kelvin_voigt", "kelvin_voigt_no_tension", "hunt_crossley"],
+                   help="contact law of the impact surfaces")
+    p.add_argument("--wob", type=float, default=None, help="weight on bit (klbf)")
+    p.add_argument("--gap-via", default="spring", choices=["spring", "anvil", "housing"],
+                   help="which length realises a gap change (default spring)")
+    _add_exec_options(p)
+    p.add_argument("--store", default=None,
+                   help="folder of finished chunks: an interrupted run resumes from it")
+    p.add_argument("--out", default=None, help="save the dataset to this NetCDF file")
+    p.add_argument("--plot", default=None, metavar="FILE.png", help="also draw the figures")
+    p.add_argument("--json", action="store_true", help="print JSON records")
+
+
+def _add_exec_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--workers", type=int, default=None,
+                   help="local threads (default: all cores)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on a Dask cluster, e.g. tcp://10.0.0.5:8786")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for the docs and tests)."""
     parser = argparse.ArgumentParser(
@@ -145,6 +378,67 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--jobs", type=int, default=2, help="parallel threads (default 2)")
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.set_defaults(func=_cmd_run)
+
+    sw = sub.add_parser(
+        "sweep", help="flow sweep: labels at every flow, regimes along flow, NetCDF",
+        description="Run the model at every flow of an axis (in parallel, resumable with "
+        "--store) and print Z per surface, scenario, peaks, J*, impact frequency and "
+        "periodicity per flow, then the regime intervals along flow.",
+    )
+    _add_grid_options(sw)
+    sw.set_defaults(func=_cmd_sweep)
+
+    mp = sub.add_parser(
+        "map", help="2-D map over flow and a parameter (or two): regimes and J*",
+        description="Run the model over flow x one or two parameters. Parameters are Table "
+        "2.1 names (see 'vadsim presets 7in-cde') or gap_ratio / gap. Example (the "
+        "dissertation's gap map): vadsim map --param gap_ratio --values 0.85 1.5 --steps 85 "
+        "--hz 21.3 69.3 0.5 --out gap.nc --store gap.parts",
+    )
+    _add_grid_options(mp)
+    mp.add_argument("--param", required=True, help="design parameter of the map")
+    mp.add_argument("--values", type=float, nargs="+", required=True,
+                    metavar="V", help="FROM TO (with --steps) or FROM TO STEP")
+    mp.add_argument("--steps", type=int, default=None, help="number of parameter values")
+    mp.add_argument("--param2", default=None, help="optional second parameter")
+    mp.add_argument("--values2", type=float, nargs=2, metavar=("FROM", "TO"))
+    mp.add_argument("--steps2", type=int, default=5)
+    mp.set_defaults(func=_cmd_map)
+
+    de = sub.add_parser(
+        "design", help="the dissertation's design studies, its recommended design, or an "
+        "optimisation of kS, gap and Fo together",
+        description="spring / gap / force: one-at-a-time map over the published range "
+        "(parametric.csv) with J* maximum and operating range per value. recommended: the "
+        "dissertation's recommended design vs the original (Fig. 5.7). optimise: "
+        "differential evolution over kS, gap ratio and Fo within the published ranges, "
+        "maximising J* and the operating range (J* within 10 %% of its maximum).",
+    )
+    de.add_argument("study", choices=["spring", "gap", "force", "recommended", "optimise"])
+    de.add_argument("preset", nargs="?", default="7in-cde")
+    de.add_argument("--steps", type=int, default=21, help="parameter values of a study (21)")
+    de.add_argument("--gap-via", default="spring", choices=["spring", "anvil", "housing"],
+                    help="which length realises a gap change (default spring)")
+    de.add_argument("--cycles", type=float, default=400)
+    de.add_argument("--analyse", type=float, default=200)
+    de.add_argument("--popsize", type=int, default=6, help="optimise: population factor (6)")
+    de.add_argument("--maxiter", type=int, default=8, help="optimise: generations (8)")
+    de.add_argument("--seed", type=int, default=1, help="optimise: random seed (1)")
+    de.add_argument("--store", default=None, help="study: resumable chunk folder")
+    de.add_argument("--out", default=None, help="save the map (NetCDF) or the designs (CSV)")
+    de.add_argument("--plot", default=None, metavar="FILE.png", help="also draw the figures")
+    _add_exec_options(de)
+    de.set_defaults(func=_cmd_design)
+
+    th = sub.add_parser(
+        "thesis", help="compare the 7in CDE flow sweep with the dissertation's regimes and peaks",
+    )
+    th.add_argument("--mode", default="independent", choices=["independent", "continuation"])
+    th.add_argument("--cycles", type=float, default=400)
+    th.add_argument("--analyse", type=float, default=200)
+    th.add_argument("--out", default=None, help="save the sweep (NetCDF)")
+    _add_exec_options(th)
+    th.set_defaults(func=_cmd_thesis)
 
     pr = sub.add_parser("presets", help="list the presets, or show one's parameters")
     pr.add_argument("name", nargs="?", help="preset to show")
