@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pytest
 import xarray as xr
-
 from vadsim import design, thesis
 
 
