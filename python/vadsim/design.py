@@ -310,7 +310,8 @@ def optimise(
         bounds = {s.parameter: (s.lo * s.scale, s.hi * s.scale) for s in STUDIES.values()}
     names = list(bounds)
     q = np.arange(200.0, 650.0 + 1e-9, 25.0) if flows is None else np.asarray(flows, float)
-    kw = dict(cycles=cycles, analyse_cycles=analyse_cycles, progress=False, workers=workers)
+    kw = dict(cycles=cycles, analyse_cycles=analyse_cycles, progress=False, workers=workers,
+              detail="map")
     base_ds = sweep(preset, q, **kw)
     base = design_metrics(base_ds)
     width0 = max(base["range_width_gpm"], float(np.min(np.diff(q))) if q.size > 1 else 1.0)
@@ -348,7 +349,7 @@ def optimise(
     top = table.loc[table["score"].idxmax()]
     best = {n: float(top[n]) for n in names}
     verified = compare_designs(best, preset, gap_via=gap_via, workers=workers,
-                               progress=False) if verify else None
+                               progress=False, detail="map") if verify else None
     return OptimisationResult(
         best=best, score=float(top["score"]),
         metrics={k: float(top[k]) for k in base}, baseline=base, history=table,
