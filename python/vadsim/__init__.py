@@ -25,6 +25,19 @@ from vadsim.simulate import (
 
 __version__ = "0.1.0"
 
+# The analysis modules pull in xarray, matplotlib and dask: loaded on first use, so that
+# `import vadsim` stays quick for a single run.
+_LAZY = ("design", "plots", "sweep", "thesis")
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return importlib.import_module(f"vadsim.{name}")
+    raise AttributeError(f"module 'vadsim' has no attribute {name!r}")
+
+
 __all__ = [
     "G",
     "PRESETS",
@@ -32,14 +45,18 @@ __all__ = [
     "Preset",
     "SimulationResult",
     "SolverError",
+    "design",
     "extra_force",
     "get_preset",
     "labels",
     "make_params",
     "param_names",
+    "plots",
     "preset_names",
     "presets",
     "recordings",
     "sensor",
     "simulate",
+    "sweep",
+    "thesis",
 ]
