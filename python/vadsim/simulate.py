@@ -46,6 +46,23 @@ SolverError = _core.SolverError
 SUNDIALS call, the simulated time and the reason."""
 
 
+def _number(name: str, value: Any, *, integer: bool = False) -> float:
+    """``value`` as a float (or int), or a ValueError that names the argument."""
+    if isinstance(value, (bool, str, bytes)) or value is None:
+        raise ValueError(f"{name} = {value!r} must be a number")
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r} must be a number") from None
+    if math.isnan(out):
+        raise ValueError(f"{name} = nan must be a number")
+    if integer:
+        if out != int(out) or abs(out) > 2**62:
+            raise ValueError(f"{name} = {value!r} must be an integer below 2**62")
+        return int(out)
+    return out
+
+
 def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
     """Build a core extra force (physics beyond the dissertation's model).
 
@@ -58,30 +75,36 @@ def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
         ``v_eps`` m/s. ``"dashpot"``: spring ``k`` and dashpot ``c`` from ``body`` to
         ``other`` (None: the ground), acting on displacements from the static state.
     """
-    def dof(name: str | None) -> int:
-        if name is None:
+    def dof(arg: str, name: Any) -> int:
+        if name is None and arg == "other":
             return -1
         if name not in _BODY:
-            raise ValueError(f"unknown body {name!r}: choose one of {', '.join(_BODY)}")
+            raise ValueError(f"{kind} {arg} = {name!r}: choose one of {', '.join(_BODY)}")
         return _BODY[name]
+
+    def need(arg: str) -> float:
+        if arg not in kw:
+            raise ValueError(f"extra force {kind!r} needs the argument {arg!r}")
+        return _number(f"{kind} {arg}", kw.pop(arg))
+
+    def opt(arg: str, default: float) -> float:
+        return _number(f"{kind} {arg}", kw.pop(arg)) if arg in kw else default
 
     if kind == "hydraulic":
         acts_on = kw.pop("acts_on", "anvil")
         if acts_on not in ("anvil", "bit"):
             raise ValueError(f"hydraulic acts_on = {acts_on!r} must be 'anvil' or 'bit'")
-        out = _core.HydraulicForce(dof(acts_on), float(kw.pop("c")))
+        out = _core.HydraulicForce(dof("acts_on", acts_on), need("c"))
     elif kind == "friction":
-        out = _core.CoulombFriction(
-            dof(kw.pop("body", "anvil")),
-            dof(kw.pop("other", "housing")),
-            float(kw.pop("force")),
-            float(kw.pop("v_eps", 1e-3)),
-        )
+        body = dof("body", kw.pop("body", "anvil"))
+        other = dof("other", kw.pop("other", "housing"))
+        out = _core.CoulombFriction(body, other, need("force"), opt("v_eps", 1e-3))
     elif kind == "dashpot":
-        out = _core.SpringDashpot(
-            dof(kw.pop("body")), dof(kw.pop("other", None)), float(kw.pop("k", 0.0)),
-            float(kw.pop("c", 0.0)),
-        )
+        if "body" not in kw:
+            raise ValueError("extra force 'dashpot' needs the argument 'body'")
+        body = dof("body", kw.pop("body"))
+        other = dof("other", kw.pop("other", None))
+        out = _core.SpringDashpot(body, other, opt("k", 0.0), opt("c", 0.0))
     else:
         raise ValueError(f"unknown extra force {kind!r}: choose hydraulic, friction or dashpot")
     if kw:
@@ -167,7 +190,10 @@ def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None
         return None
     if isinstance(value, SimulationResult):
         value = value.y_end
-    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"initial_state = {value!r} must be 14 numbers or a result") from None
     if arr.shape != (14,):
         raise ValueError(f"initial_state must have 14 entries [x1..x7, v1..v7], got {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -248,38 +274,46 @@ def simulate(
     >>> round(r.z["impact"], 2), r.scenario
     (1.0, 1)
     """
+    if not isinstance(model, (str, Preset, Mapping, _core.Params)):
+        raise ValueError(
+            f"model = {model!r} must be a preset name, a Preset, a mapping of parameters "
+            "or core Params"
+        )
     preset = get_preset(model) if isinstance(model, (str, Preset)) else None
     params = make_params(model, overrides, law)
     if wob_klbf is not None:
         if preset is None:
             raise ValueError("wob_klbf needs a preset (it scales the preset's wob)")
-        if not (wob_klbf >= 0) or not math.isfinite(wob_klbf):
+        wob = _number("wob_klbf", wob_klbf)
+        if not (wob >= 0) or not math.isfinite(wob):
             raise ValueError(f"wob_klbf = {wob_klbf} must be finite and >= 0")
-        params.wob = params.wob * wob_klbf / preset.wob_klbf
-    try:
-        flow = float(flow_gpm)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"flow_gpm = {flow_gpm!r} is not a number") from exc
-    if method not in _METHODS:
+        params.wob = params.wob * wob / preset.wob_klbf
+        params.validate()
+    flow = _number("flow_gpm", flow_gpm)
+    for i, e in enumerate(extras):
+        if not isinstance(e, _core.ExtraForce):
+            raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...)")
+    if not isinstance(method, str) or method not in _METHODS:
         raise ValueError(f"method = {method!r} must be 'adams' or 'bdf'")
-    if record not in _RECORDS:
+    if not isinstance(record, str) or record not in _RECORDS:
         raise ValueError(f"record = {record!r} must be 'window', 'all' or 'none'")
     for name, value in (("max_steps", max_steps), ("max_events", max_events)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
             raise ValueError(f"{name} = {value!r} must be an integer")
+        _number(name, value, integer=True)
     core_model = _core.Model(params, list(extras))
 
     opts = _core.RunOptions()
     opts.flow_gpm = flow
-    opts.cycles = float(cycles)
-    opts.analyse_cycles = float(analyse_cycles)
+    opts.cycles = _number("option cycles", cycles)
+    opts.analyse_cycles = _number("option analyse_cycles", analyse_cycles)
     opts.method = _METHODS[method]
-    opts.rtol = float(rtol)
-    opts.atol = float(atol)
-    opts.max_step = float(max_step)
+    opts.rtol = _number("option rtol", rtol)
+    opts.atol = _number("option atol", atol)
+    opts.max_step = _number("option max_step", max_step)
     opts.record = _RECORDS[record]
-    opts.output_rate_hz = float(output_rate_hz)
-    opts.summary_rate_hz = float(summary_rate_hz)
+    opts.output_rate_hz = _number("option output_rate_hz", output_rate_hz)
+    opts.summary_rate_hz = _number("option summary_rate_hz", summary_rate_hz)
     opts.max_steps = int(max_steps)
     opts.max_events = int(max_events)
     opts.initial_state = _initial_state(initial_state)
