@@ -37,7 +37,8 @@ TARGET_S = 300.0
 
 def _timed(fn: Callable[..., Any], times: list[float], lock: threading.Lock
            ) -> Callable[..., Any]:
-    """Wrap ``fn`` so that every call's wall time is appended to ``times``."""
+    """Wrap ``fn`` so that every call's wall time is appended to ``times`` (except sweep's
+    one-cycle validation probe, which is not a map point)."""
 
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         t0 = time.perf_counter()
@@ -45,8 +46,9 @@ def _timed(fn: Callable[..., Any], times: list[float], lock: threading.Lock
             return fn(*args, **kwargs)
         finally:
             dt = time.perf_counter() - t0
-            with lock:
-                times.append(dt)
+            if kwargs.get("cycles") != 1:
+                with lock:
+                    times.append(dt)
 
     return wrapper
 

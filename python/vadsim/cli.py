@@ -250,7 +250,20 @@ def _cmd_design(args: argparse.Namespace) -> int:
             from vadsim import plots
 
             plots.design_comparison(opt.verified.original, opt.verified.changed,
-                                    path=args.plot)
+                                    labels=("original", "optimised"), path=args.plot)
+    if args.plot:
+        # The optimum's map: flow x gap ratio over the published range, kS and Fo optimal.
+        from vadsim import plots
+
+        fixed = {k: v for k, v in opt.best.items() if k != "gap_ratio"}
+        gap_map = design.sweep(args.preset, design.thesis_flows(args.preset, 1.0),
+                               {"gap_ratio": np.linspace(*design.STUDIES["gap"].values(2), 14)},
+                               overrides=fixed, gap_via=args.gap_via, detail="map",
+                               workers=args.workers, progress=not args.quiet)
+        for kind, fn in (("regimes", plots.regime_map), ("j", plots.j_map)):
+            path = args.plot.replace(".png", f"-map-{kind}.png")
+            fn(gap_map, path=path)
+            print(f"figure {path}")
     if args.out:
         opt.history.to_csv(args.out, index=False)
         print(f"saved every evaluated design to {args.out}")
