@@ -27,6 +27,8 @@ from scipy.integrate import trapezoid
 from scipy.signal import find_peaks
 from scipy.spatial import ConvexHull, QhullError
 
+from vadsim._checks import finite_1d, finite_positive
+
 __all__ = [
     "IMPACT_HEIGHT_FRAC",
     "IMPACT_MIN_DISTANCE_S",
@@ -154,21 +156,6 @@ _REGIME_NAMES: dict[int, str] = {
 # --------------------------------------------------------------------------------------------
 
 
-def _finite_positive(name: str, value: float) -> float:
-    value = float(value)
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return value
-
-
-def _finite_1d(name: str, values: npt.ArrayLike) -> np.ndarray:
-    arr = np.asarray(values, dtype=float)
-    if arr.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ValueError(f"{name} has a non-finite value at index {bad[0]}: {arr[bad[0]]!r}")
-    return arr
 
 
 def _check_z(name: str, z: float) -> float:
@@ -215,8 +202,8 @@ def onset_times(t: npt.ArrayLike, indentation: npt.ArrayLike) -> np.ndarray:
     ValueError
         If the arrays differ in length, are not finite, or ``t`` is not strictly increasing.
     """
-    t = _finite_1d("t", t)
-    d = _finite_1d("indentation", indentation)
+    t = finite_1d("t", t)
+    d = finite_1d("indentation", indentation)
     if t.shape != d.shape:
         raise ValueError(f"t and indentation differ in length: {t.size} != {d.size}")
     if t.size > 1 and np.any(np.diff(t) <= 0.0):
@@ -257,7 +244,7 @@ def impacts_per_cycle(onset_times: npt.ArrayLike, t0: float, t1: float, f_exc_hz
     t0, t1 = float(t0), float(t1)
     if not (math.isfinite(t0) and math.isfinite(t1)) or t1 <= t0:
         raise ValueError(f"need finite t0 < t1, got t0={t0!r}, t1={t1!r}")
-    f = _finite_positive("f_exc_hz", f_exc_hz)
+    f = finite_positive("f_exc_hz", f_exc_hz)
     count = np.count_nonzero((onsets >= t0) & (onsets < t1))
     return count / ((t1 - t0) * f)
 
@@ -378,8 +365,8 @@ def impulse_per_second(t: npt.ArrayLike, force: npt.ArrayLike) -> tuple[float, f
     mean_positive : float
         Time average of max(F_I, 0).
     """
-    t = _finite_1d("t", t)
-    f = _finite_1d("force", force)
+    t = finite_1d("t", t)
+    f = finite_1d("force", force)
     if t.shape != f.shape:
         raise ValueError(f"t and force differ in length: {t.size} != {f.size}")
     if t.size < 2:
@@ -429,9 +416,9 @@ def window_peaks(
     ValueError
         On bad arguments, or if the signal is shorter than one window.
     """
-    a = _finite_1d("signal", signal)
-    rate_hz = _finite_positive("rate_hz", rate_hz)
-    window_s = _finite_positive("window_s", window_s)
+    a = finite_1d("signal", signal)
+    rate_hz = finite_positive("rate_hz", rate_hz)
+    window_s = finite_positive("window_s", window_s)
     bounds = _window_bounds(a.size, rate_hz, window_s)
     if bounds.size < 2 or np.any(np.diff(bounds) < 1):
         raise ValueError(
@@ -500,8 +487,8 @@ def impact_frequency(
     float
         Major peaks per second, Hz (0.0 for a silent signal).
     """
-    a = np.abs(_finite_1d("signal_g", signal_g))
-    rate_hz = _finite_positive("rate_hz", rate_hz)
+    a = np.abs(finite_1d("signal_g", signal_g))
+    rate_hz = finite_positive("rate_hz", rate_hz)
     height_frac = float(height_frac)
     if not 0.0 < height_frac <= 1.0:
         raise ValueError(f"height_frac must be in (0, 1], got {height_frac!r}")
@@ -598,7 +585,7 @@ def poincare_period(
         The smallest period p in ``1..max_period``, or None if there is none.
     """
     s = _tail(_as_section(section), tail)
-    rtol = _finite_positive("rtol", rtol)
+    rtol = finite_positive("rtol", rtol)
     if int(max_period) != max_period or max_period < 1:
         raise ValueError(f"max_period must be an integer >= 1, got {max_period!r}")
     sc = _scale(s, scale)

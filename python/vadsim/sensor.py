@@ -22,6 +22,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
+from vadsim._checks import finite_1d, finite_positive, number
+
 __all__ = ["LOWPASS_ORDER", "MIN_OVERSAMPLING", "sensor_chain"]
 
 LOWPASS_ORDER: int = 4
@@ -41,28 +43,7 @@ _UNIFORM_RTOL: float = 1e-6
 # As RECORDINGS.md for the recorded time column: steps equal to 1e-6 of the step.
 
 
-def _finite_1d(name: str, values: npt.ArrayLike) -> np.ndarray:
-    arr = np.asarray(values, dtype=float)
-    if arr.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ValueError(f"{name} has a non-finite value at index {bad[0]}: {arr[bad[0]]!r}")
-    return arr
 
-
-def _number(name: str, value: float) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-
-
-def _finite_positive(name: str, value: float) -> float:
-    value = _number(name, value)
-    if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return value
 
 
 def _fine_step(t: np.ndarray) -> float:
@@ -145,16 +126,16 @@ def sensor_chain(
         not > 0; ``lowpass_hz`` at or above the fine grid's Nyquist frequency; ``phase``
         outside [0, 1); ``noise_g`` < 0.
     """
-    t = _finite_1d("t", t)
-    a = _finite_1d("a_g", a_g)
+    t = finite_1d("t", t)
+    a = finite_1d("a_g", a_g)
     if a.shape != t.shape:
         raise ValueError(f"a_g must have the length of t ({t.size}), got {a.size}")
-    rate_hz = _finite_positive("rate_hz", rate_hz)
-    range_g = _finite_positive("range_g", range_g)
-    phase = _number("phase", phase)
+    rate_hz = finite_positive("rate_hz", rate_hz)
+    range_g = finite_positive("range_g", range_g)
+    phase = number("phase", phase)
     if not 0.0 <= phase < 1.0:
         raise ValueError(f"phase must be in [0, 1) of a sample period, got {phase!r}")
-    noise_g = _number("noise_g", noise_g)
+    noise_g = number("noise_g", noise_g)
     if not math.isfinite(noise_g) or noise_g < 0.0:
         raise ValueError(f"noise_g must be a finite number >= 0, got {noise_g!r}")
 
@@ -167,7 +148,7 @@ def sensor_chain(
         )
 
     if lowpass_hz is not None:
-        lowpass_hz = _finite_positive("lowpass_hz", lowpass_hz)
+        lowpass_hz = finite_positive("lowpass_hz", lowpass_hz)
         if lowpass_hz >= 0.5 * fine_rate:
             raise ValueError(
                 f"lowpass_hz={lowpass_hz!r} must be below the Nyquist frequency of the fine "
