@@ -306,6 +306,33 @@ def _cmd_thesis(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_plot(args: argparse.Namespace) -> int:
+    from vadsim import plots
+    from vadsim.sweep import load_dataset
+
+    if args.kind == "traces":
+        preset = args.inputs[0] if args.inputs else "7in-cde"
+        r = simulate(preset, args.flow, cycles=args.cycles, analyse_cycles=args.analyse,
+                     record="window")
+        plots.time_traces(r, cycles=args.show_cycles, path=args.out)
+    else:
+        if not args.inputs:
+            raise ValueError(f"plot {args.kind} needs a NetCDF file from sweep, map or design")
+        ds = [load_dataset(p) for p in args.inputs]
+        if args.kind == "compare":
+            if len(ds) != 2:
+                raise ValueError("plot compare needs two files: original and changed design")
+            plots.design_comparison(ds[0], ds[1], path=args.out)
+        else:
+            fn = {"peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow,
+                  "regime-map": plots.regime_map, "j-map": plots.j_map}[args.kind]
+            kwargs = {"reference": args.reference} if args.kind == "peaks" and args.reference \
+                else {}
+            fn(ds[0], path=args.out, **kwargs)
+    print(f"figure {args.out}")
+    return 0
+
+
 class _pd_display:
     def __enter__(self) -> None:
         import pandas as pd
@@ -456,6 +483,28 @@ def build_parser() -> argparse.ArgumentParser:
     _add_exec_options(th)
     th.set_defaults(func=_cmd_thesis)
 
+    pl = sub.add_parser(
+        "plot", help="draw a figure from a saved sweep/map, or time traces of a run",
+        description="peaks / z / j: a flow sweep's peaks (Figs 3.42, 4.27b), Z* (4.27a) or "
+        "J* by regime (4.28); regime-map / j-map: a map over flow and a parameter (5.1-5.6); "
+        "compare: two flow sweeps, original and changed design (5.7); traces: forces, "
+        "indentations and x1 acceleration over the last cycles of a run (4.2-4.6). "
+        "Example: vadsim sweep --out s.nc && vadsim plot peaks s.nc --reference "
+        "thesis-7in-cde --out peaks.png",
+    )
+    pl.add_argument("kind", choices=["peaks", "z", "j", "regime-map", "j-map", "compare",
+                                     "traces"])
+    pl.add_argument("inputs", nargs="*",
+                    help="NetCDF file(s) from sweep/map/design; for traces: a preset")
+    pl.add_argument("--out", default="figure.png", help="output file (.png, .pdf, .svg)")
+    pl.add_argument("--reference", default=None,
+                    help="peaks: overlay the dissertation's points, e.g. thesis-7in-cde")
+    pl.add_argument("--flow", type=float, default=200.0, help="traces: flow (gal/min)")
+    pl.add_argument("--cycles", type=float, default=400, help="traces: run length (400)")
+    pl.add_argument("--analyse", type=float, default=200, help="traces: window (200)")
+    pl.add_argument("--show-cycles", type=float, default=3, help="traces: cycles shown (3)")
+    pl.set_defaults(func=_cmd_plot)
+
     pr = sub.add_parser("presets", help="list the presets, or show one's parameters")
     pr.add_argument("name", nargs="?", help="preset to show")
     pr.set_defaults(func=_cmd_presets)
@@ -467,7 +516,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except (ValueError, SolverError) as exc:
+    except (ValueError, SolverError, OSError) as exc:
         print(f"vadsim: error: {exc}", file=sys.stderr)
         return 2
 
