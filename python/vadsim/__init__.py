@@ -27,7 +27,7 @@ __version__ = "0.1.0"
 
 # The analysis modules pull in xarray, matplotlib and dask: loaded on first use, so that
 # `import vadsim` stays quick for a single run.
-_LAZY = ("design", "plots", "sweep", "thesis")
+_LAZY = ("calibrate", "design", "features", "plots", "sweep", "synthetic", "thesis", "validate")
 
 
 def __getattr__(name: str):
@@ -45,8 +45,10 @@ __all__ = [
     "Preset",
     "SimulationResult",
     "SolverError",
+    "calibrate",
     "design",
     "extra_force",
+    "features",
     "get_preset",
     "labels",
     "make_params",
@@ -58,5 +60,7 @@ __all__ = [
     "sensor",
     "simulate",
     "sweep",
+    "synthetic",
     "thesis",
+    "validate",
 ]

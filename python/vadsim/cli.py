@@ -333,6 +333,74 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from vadsim.validate import validate, write_report
+
+    t0 = time.perf_counter()
+    res = validate(args.campaign, overrides=_parse_overrides(args.set or []),
+                   cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers)
+    cmd = "vadsim validate " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else None
+    path = write_report(res, args.out, fmt=args.format, command=cmd)
+    z = res.residuals
+    with _pd_display():
+        print(f"{res.campaign.name}: {len(res.campaign.events)} events simulated in "
+              f"{time.perf_counter() - t0:.1f} s with preset {res.preset.name}")
+        print("standardised residuals (model through the sensor chain - recorded) / spread:")
+        print(z.round(2).to_string())
+    print(f"report: {path}")
+    return 0
+
+
+def _parse_pairs(items: Sequence[str], flag: str) -> dict[str, str]:
+    out = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"{flag} {item!r}: expected NAME=VALUE")
+        out[name.strip()] = value.strip()
+    return out
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from vadsim.calibrate import calibrate
+
+    bounds = {}
+    for name, text in _parse_pairs(args.bounds, "--bounds").items():
+        lo, sep, hi = text.partition(":")
+        if not sep:
+            raise ValueError(f"--bounds {name}={text}: expected LO:HI")
+        bounds[name] = (float(lo), float(hi))
+    start = {k: float(v) for k, v in _parse_pairs(args.start, "--start").items()}
+
+    def report(stage: str, n: int, cost: float, vals: dict) -> None:
+        if not args.quiet and n % 10 == 0:
+            print(f"  [{stage}] evaluation {n}: cost {cost:.4g} at "
+                  + ", ".join(f"{k}={v:.5g}" for k, v in vals.items()), flush=True)
+
+    res = calibrate(args.campaign, args.param, bounds=bounds or None, start=start or None,
+                    targets=args.targets, keys=args.keys, resolution=args.resolution,
+                    overrides=_parse_overrides(args.set or []), global_stage=not args.no_global,
+                    popsize=args.popsize, maxiter=args.maxiter, seed=args.seed,
+                    profile_points=args.profile, cycles=args.cycles,
+                    analyse_cycles=args.analyse, workers=args.workers, callback=report)
+    if args.json:
+        print(json.dumps({"estimates": res.estimates, "stderr": res.stderr,
+                          "start": res.start, "cost_before": res.cost_before,
+                          "cost_after": res.cost_after, "evaluations": res.evaluations,
+                          "seconds": round(res.seconds, 2)}))
+        return 0
+    print(res.summary())
+    with _pd_display():
+        print("standardised residuals before:")
+        print(res.residuals_before.round(2).to_string())
+        print("after:")
+        print(res.residuals_after.round(2).to_string())
+        for name, prof in res.profile.items():
+            print(f"profile of the cost along {name}:")
+            print(prof.round(4).to_string(index=False))
+    return 0
+
+
 class _pd_display:
     def __enter__(self) -> None:
         import pandas as pd
@@ -504,6 +572,61 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--analyse", type=float, default=200, help="traces: window (200)")
     pl.add_argument("--show-cycles", type=float, default=3, help="traces: cycles shown (3)")
     pl.set_defaults(func=_cmd_plot)
+
+    va = sub.add_parser(
+        "validate", help="simulate a campaign's events and compare features with the recordings",
+        description="Simulate every event of CAMPAIGN (a folder with campaign.toml, the toml "
+        "file, or a shipped campaign: thesis:7in-cde, thesis:7in-rc, thesis:9.5in-pdc) at its "
+        "flow and WOB, pass each sensor's simulated acceleration through its chain, compute "
+        "the same features on both sides and write a report (tables, peaks vs flow, "
+        "standardised mismatch heat map).",
+    )
+    va.add_argument("campaign")
+    va.add_argument("--out", default="validation", help="report folder (default validation)")
+    va.add_argument("--format", default="md", choices=["md", "html"], help="report format")
+    va.add_argument("--set", action="append", metavar="NAME=VALUE",
+                    help="override a model parameter (repeatable)")
+    va.add_argument("--cycles", type=float, default=400)
+    va.add_argument("--analyse", type=float, default=200)
+    _add_exec_options(va)
+    va.set_defaults(func=_cmd_validate)
+
+    ca = sub.add_parser(
+        "calibrate", help="fit parameters to a campaign (robust least squares, global stage)",
+        description="Fit --param parameters to CAMPAIGN's features by robust least squares "
+        "on standardised residuals: differential evolution within the bounds, then a local "
+        "soft-L1 polish; prints estimates with standard errors and the fit before and after. "
+        "Example (the 9.5in withheld constants against the dissertation's simulations): "
+        "vadsim calibrate thesis:9.5in-pdc --param l0 --param wob --targets thesis-sim "
+        "--resolution full",
+    )
+    ca.add_argument("campaign")
+    ca.add_argument("--param", action="append", required=True,
+                    help="parameter to fit (repeatable), e.g. --param l0 --param wob")
+    ca.add_argument("--bounds", action="append", metavar="NAME=LO:HI",
+                    help="search range (defaults: l0 0.4:1.4 m, wob 200:2500 N/kg, "
+                    "else 0.5x-2x the start)")
+    ca.add_argument("--start", action="append", metavar="NAME=VALUE",
+                    help="starting value (default: the preset's)")
+    ca.add_argument("--targets", default="recorded", choices=["recorded", "thesis-sim"],
+                    help="fit the recordings, or the dissertation's own simulated results")
+    ca.add_argument("--keys", nargs="+", default=None,
+                    help="feature keys to fit (default: all that both sides have)")
+    ca.add_argument("--resolution", default="sensor", choices=["sensor", "full"],
+                    help="simulated features through the sensor chain or at full resolution")
+    ca.add_argument("--no-global", action="store_true", help="skip the global stage")
+    ca.add_argument("--popsize", type=int, default=8)
+    ca.add_argument("--maxiter", type=int, default=10)
+    ca.add_argument("--seed", type=int, default=1)
+    ca.add_argument("--profile", type=int, default=0, metavar="N",
+                    help="profile the cost along each parameter at N points")
+    ca.add_argument("--set", action="append", metavar="NAME=VALUE",
+                    help="fixed parameter overrides (repeatable)")
+    ca.add_argument("--cycles", type=float, default=400)
+    ca.add_argument("--analyse", type=float, default=200)
+    ca.add_argument("--json", action="store_true")
+    _add_exec_options(ca)
+    ca.set_defaults(func=_cmd_calibrate)
 
     pr = sub.add_parser("presets", help="list the presets, or show one's parameters")
     pr.add_argument("name", nargs="?", help="preset to show")

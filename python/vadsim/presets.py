@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 from vadsim import _core
@@ -25,6 +27,7 @@ __all__ = [
     "PRESETS",
     "Preset",
     "get_preset",
+    "load_preset_file",
     "make_params",
     "param_names",
     "param_table",
@@ -160,6 +163,52 @@ def get_preset(name: str | Preset, bit: str | None = None) -> Preset:
             + (f" (tool {name!r} with bit {bit!r})" if bit else "")
         )
     return PRESETS[key]
+
+
+def load_preset_file(path: str | os.PathLike[str]) -> Preset:
+    """A preset from a TOML file: a built-in ``base`` preset plus parameter changes.
+
+    Example::
+
+        name = "7in-cde-stiff-spring"
+        base = "7in-cde"          # default 7in-cde
+        wob_klbf = 4.0            # default: the base's
+        law = "kelvin_voigt"      # default: the base's
+        note = "spring from the 2016 redesign"
+        [params]
+        kS = 472400.0
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the bad key or value.
+    """
+    import tomllib
+
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except OSError as exc:
+        raise ValueError(f"preset file {path}: {exc.strerror or exc}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"preset file {path}: {exc}") from exc
+    known = {"name", "base", "wob_klbf", "law", "note", "params"}
+    unknown = sorted(set(doc) - known)
+    if unknown:
+        raise ValueError(f"preset file {path}: unknown key(s) {unknown}; allowed {sorted(known)}")
+    base = get_preset(doc.get("base", "7in-cde"))
+    params = doc.get("params", {})
+    if not isinstance(params, dict):
+        raise ValueError(f"preset file {path}: [params] must be a table")
+    try:
+        merged = {**base.params, **_checked_overrides(params)}
+        law = doc.get("law", base.law)
+        make_params(merged, law=law)
+        wob_klbf = float(doc.get("wob_klbf", base.wob_klbf))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"preset file {path}: {exc}") from exc
+    return Preset(str(doc.get("name", path.stem)), base.tool, base.bit, merged, wob_klbf,
+                  law=law, note=str(doc.get("note", f"from {path}")))
 
 
 def _checked_overrides(overrides: Mapping[str, Any]) -> dict[str, float]:

@@ -1,0 +1,511 @@
+"""Validation of the model against a campaign of recordings (dissertation chapter 3).
+
+Why this module exists: a field campaign is a set of steady operating points recorded by
+accelerometers. To say whether the model is right, every event is simulated at its flow and
+WOB, the simulated acceleration at each sensor's degree of freedom is passed through that
+sensor's chain (low-pass, sampling, clipping: RECORDINGS.md), the same features are computed
+on both sides, and the differences are standardised by the recording's own spread. The report
+shows a table per event, the dissertation-style figures (peaks vs flow, field vs model) and a
+heat map of standardised residuals (event x feature x sensor).
+
+Features are computed twice for simulations: through the sensor chain (what the comparison
+uses, as RECORDINGS.md requires) and at the solver's full resolution (what the dissertation
+compared with the field, and what MODEL.md's reference table reports).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vadsim import __version__ as _version
+from vadsim.features import Feature, event_features, summary_features
+from vadsim.presets import Preset, get_preset, load_preset_file
+from vadsim.recordings import Campaign, Event, load_campaign, thesis_campaigns
+from vadsim.sensor import sensor_chain
+from vadsim.simulate import G, SimulationResult, simulate
+
+__all__ = [
+    "EventSimulation",
+    "ValidationResult",
+    "campaign_preset",
+    "event_residuals",
+    "findings",
+    "load_any_campaign",
+    "recorded_features",
+    "simulate_event",
+    "validate",
+    "write_report",
+]
+
+FINE_RATE_FACTOR = 20
+"""Simulated signals are recorded at 20x the fastest sensor's rate before the sensor chain
+samples them (the chain needs at least 4x; 20x keeps the interpolation error of a 1 ms spike
+small)."""
+
+
+def load_any_campaign(source: str | os.PathLike[str] | Campaign) -> Campaign:
+    """A campaign from a folder or TOML file, or a shipped one: ``"thesis:7in-cde"``,
+    ``"thesis:7in-rc"``, ``"thesis:9.5in-pdc"`` (the dissertation's field tables)."""
+    if isinstance(source, Campaign):
+        return source
+    text = str(source)
+    if text.startswith("thesis:"):
+        key = text.split(":", 1)[1]
+        shipped = thesis_campaigns()
+        if key not in shipped:
+            raise ValueError(f"unknown shipped campaign {text!r}: choose thesis:"
+                             + ", thesis:".join(shipped))
+        return shipped[key]
+    return load_campaign(text)
+
+
+def campaign_preset(campaign: Campaign) -> Preset:
+    """The preset a campaign's ``tool`` and ``bit`` name (or its preset file)."""
+    tool = campaign.tool
+    if campaign.root is not None and (Path(campaign.root) / tool).is_file():
+        return load_preset_file(Path(campaign.root) / tool)
+    if Path(tool).is_file():
+        return load_preset_file(tool)
+    return get_preset(tool, campaign.bit)
+
+
+@dataclass
+class EventSimulation:
+    """One simulated event: features through the sensor chain and at full resolution."""
+
+    event_id: str
+    flow_gpm: float
+    wob_klbf: float
+    f_exc_hz: float
+    sensor: dict[str, Feature]
+    full: dict[str, Feature]
+    z: dict[str, float]
+    scenario: int
+    phase_sd: dict[str, float] = field(default_factory=dict)
+    signals: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    rate_hz: float = 0.0
+    error: str = ""
+
+
+def _sensor_groups(campaign: Campaign) -> dict[float, list[str]]:
+    groups: dict[float, list[str]] = {}
+    for name, s in campaign.sensors.items():
+        groups.setdefault(float(s.rate_hz), []).append(name)
+    return groups
+
+
+def simulate_event(
+    campaign: Campaign,
+    event: Event,
+    *,
+    preset: Preset | None = None,
+    overrides: Mapping[str, float] | None = None,
+    extras: Sequence[Any] = (),
+    law: str | None = None,
+    cycles: float = 400,
+    analyse_cycles: float = 200,
+    phases: int = 8,
+    noise_g: float = 0.0,
+    seed: int | None = None,
+    keep_signals: bool = False,
+) -> EventSimulation:
+    """Simulate one event and compute its features through each sensor's chain and at full
+    resolution.
+
+    A recording's sampling phase is unknown, and a 1 ms impact spike sampled at 1024 Hz shows
+    a peak that depends on it (33-40 g at 400 gal/min for the 7in tool). The features through
+    the chain are therefore averaged over ``phases`` sampling phases (0, 1/phases, ...) of
+    the same run: the model's expectation, not one draw; ``phase_sd`` keeps their standard
+    deviation, the model's own uncertainty about a recording's features. It matters most
+    where the excitation is nearly commensurate with the sampling (64 Hz at 1024 Hz: 16.0
+    samples per cycle), where a recording keeps one phase for its whole length.
+    """
+    if not (isinstance(phases, int) and phases >= 1):
+        raise ValueError(f"phases = {phases!r} must be an integer >= 1")
+    preset = preset or campaign_preset(campaign)
+    rates = [s.rate_hz for s in campaign.sensors.values()]
+    fine = FINE_RATE_FACTOR * max(rates)
+    r: SimulationResult = simulate(
+        preset, event.flow_gpm, cycles=cycles, analyse_cycles=analyse_cycles,
+        overrides=overrides, wob_klbf=event.wob_klbf, law=law, extras=list(extras),
+        record="window", output_rate_hz=fine,
+    )
+    rng = np.random.default_rng(seed)
+    sensor_feats: dict[str, Feature] = {}
+    full_feats: dict[str, Feature] = {}
+    phase_sd: dict[str, float] = {}
+    kept: dict[str, np.ndarray] = {}
+    for rate, names in _sensor_groups(campaign).items():
+        full = {name: r.a[:, campaign.sensors[name].dof - 1] / G for name in names}
+        per_phase: list[dict[str, Feature]] = []
+        for k in range(phases):
+            sampled, clipped = {}, {}
+            for name in names:
+                s = campaign.sensors[name]
+                _, a_s, clip = sensor_chain(r.t, full[name], rate_hz=s.rate_hz,
+                                            range_g=s.range_g, lowpass_hz=s.lowpass_hz,
+                                            phase=k / phases, noise_g=noise_g, rng=rng)
+                sampled[name], clipped[name] = a_s, clip
+                if keep_signals and k == 0:
+                    kept[name] = a_s
+            per_phase.append(event_features(sampled, rate, r.f_exc_hz, clipped=clipped))
+        for key in per_phase[0]:
+            vals = [f[key] for f in per_phase if key in f]
+            values = np.array([v.value for v in vals])
+            sensor_feats[key] = Feature(float(np.mean(values)),
+                                        float(np.mean([v.spread for v in vals])),
+                                        int(sum(v.n for v in vals)))
+            phase_sd[key] = float(np.std(values)) if len(values) > 1 else 0.0
+        full_feats.update(event_features(full, fine, r.f_exc_hz))
+    return EventSimulation(
+        event_id=event.id, flow_gpm=event.flow_gpm, wob_klbf=float(event.wob_klbf),
+        f_exc_hz=r.f_exc_hz, sensor=sensor_feats, full=full_feats, z=r.z,
+        scenario=r.scenario, phase_sd=phase_sd, signals=kept, rate_hz=float(max(rates)),
+    )
+
+
+def event_residuals(sim: EventSimulation, rec: Mapping[str, Feature],
+                    resolution: str = "sensor") -> dict[str, float]:
+    """Standardised residuals of one event: (model - recorded) / spread.
+
+    Through the sensor chain the spread combines the recording's own (window to window) and
+    the model's over unknown sampling phases, ``sqrt(rec.spread^2 + phase_sd^2)``; at full
+    resolution it is the recording's alone.
+    """
+    feats = sim.sensor if resolution == "sensor" else sim.full
+    out: dict[str, float] = {}
+    for key, f in rec.items():
+        m = feats.get(key)
+        if m is None or not (math.isfinite(m.value) and math.isfinite(f.value)):
+            continue
+        sd = f.spread
+        if resolution == "sensor":
+            sd = math.hypot(sd, sim.phase_sd.get(key, 0.0))
+        if sd > 0 and math.isfinite(sd):
+            out[key] = (m.value - f.value) / sd
+    return out
+
+
+def recorded_features(campaign: Campaign, event: Event, f_exc_hz: float) -> dict[str, Feature]:
+    """Features of a recorded event (time series), or its summary-only features."""
+    if event.data is None:
+        return summary_features(event.features)
+    out: dict[str, Feature] = {}
+    for rate, names in _sensor_groups(campaign).items():
+        signals = {n: event.data[f"{n}_g"].to_numpy(float) for n in names}
+        clipped = {n: event.clipped.get(n) for n in names if event.clipped.get(n) is not None}
+        out.update(event_features(signals, rate, f_exc_hz, clipped=clipped or None))
+    if event.features:  # summary values given next to a time series win: they are stated
+        out.update(summary_features(event.features))
+    return out
+
+
+@dataclass
+class ValidationResult:
+    """Everything a validation computed, ready for a report or a diagnosis."""
+
+    campaign: Campaign
+    preset: Preset
+    overrides: dict[str, float]
+    simulations: dict[str, EventSimulation]
+    recorded: dict[str, dict[str, Feature]]
+    residuals: pd.DataFrame
+    residuals_full: pd.DataFrame
+    settings: dict[str, Any]
+
+    def events_table(self) -> pd.DataFrame:
+        """One row per event: operating point, regime, and each compared feature recorded,
+        simulated (sensor chain and full resolution) and standardised residual."""
+        rows = []
+        for ev in self.campaign.events:
+            sim = self.simulations[ev.id]
+            rec = self.recorded[ev.id]
+            row: dict[str, Any] = {"event": ev.id, "flow_gpm": ev.flow_gpm,
+                                   "wob_klbf": ev.wob_klbf, "f_exc_hz": sim.f_exc_hz,
+                                   "scenario": sim.scenario, "Z_spring": sim.z["spring"],
+                                   "Z_impact": sim.z["impact"]}
+            for key, f in rec.items():
+                if key not in sim.sensor:
+                    continue
+                row[f"{key} rec"] = f.value
+                row[f"{key} spread"] = f.spread
+                row[f"{key} sim"] = sim.sensor[key].value
+                row[f"{key} sim-full"] = sim.full.get(key, Feature(math.nan, math.nan, 0)).value
+                row[f"{key} z"] = self.residuals.loc[ev.id, key]
+            rows.append(row)
+        return pd.DataFrame(rows).set_index("event")
+
+
+def validate(
+    campaign: str | os.PathLike[str] | Campaign,
+    *,
+    overrides: Mapping[str, float] | None = None,
+    extras: Sequence[Any] = (),
+    law: str | None = None,
+    cycles: float = 400,
+    analyse_cycles: float = 200,
+    workers: int | None = None,
+    preset: Preset | None = None,
+) -> ValidationResult:
+    """Simulate every event of a campaign (in parallel threads) and compare features.
+
+    Returns
+    -------
+    ValidationResult
+        ``residuals`` (events x features): (simulated through the sensor chain - recorded) /
+        recorded spread; ``residuals_full``: the same with full-resolution simulated features.
+    """
+    camp = load_any_campaign(campaign)
+    preset = preset or campaign_preset(camp)
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+        futures = {ev.id: pool.submit(simulate_event, camp, ev, preset=preset,
+                                      overrides=overrides, extras=extras, law=law,
+                                      cycles=cycles, analyse_cycles=analyse_cycles)
+                   for ev in camp.events}
+        sims = {k: f.result() for k, f in futures.items()}
+    recorded = {ev.id: recorded_features(camp, ev, sims[ev.id].f_exc_hz) for ev in camp.events}
+    order = [ev.id for ev in camp.events]
+    res = pd.DataFrame({e: event_residuals(sims[e], recorded[e], "sensor") for e in order}).T
+    res_full = pd.DataFrame({e: event_residuals(sims[e], recorded[e], "full") for e in order}).T
+    return ValidationResult(
+        campaign=camp, preset=preset, overrides=dict(overrides or {}), simulations=sims,
+        recorded=recorded, residuals=res.reindex(order), residuals_full=res_full.reindex(order),
+        settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, law=law,
+                      extras=[getattr(e, "name", str(e)) for e in extras]),
+    )
+
+
+def _peaks_figure(result: ValidationResult):
+    from matplotlib.figure import Figure
+
+    sensors = [s for s in result.campaign.sensors
+               if any(f"{s}_peak_mean_g" in r for r in result.recorded.values())]
+    sensors = sensors or list(result.campaign.sensors)[:1]
+    fig = Figure(figsize=(6.5 * len(sensors), 4.6), layout="constrained")
+    axes = fig.subplots(1, len(sensors), squeeze=False)[0]
+    flows = np.array([ev.flow_gpm for ev in result.campaign.events])
+    order = np.argsort(flows)
+    for ax, s in zip(axes, sensors, strict=True):
+        key = f"{s}_peak_mean_g"
+        rec = np.array([result.recorded[ev.id].get(key, Feature(math.nan, math.nan, 0)).value
+                        for ev in result.campaign.events])
+        spread = np.array([result.recorded[ev.id].get(key, Feature(math.nan, math.nan, 0))
+                           .spread for ev in result.campaign.events])
+        sim = np.array([result.simulations[ev.id].sensor.get(key, Feature(math.nan, 0, 0))
+                        .value for ev in result.campaign.events])
+        full = np.array([result.simulations[ev.id].full.get(key, Feature(math.nan, 0, 0))
+                         .value for ev in result.campaign.events])
+        ax.errorbar(flows[order], rec[order], yerr=spread[order], fmt="s", color="black",
+                    capsize=3, label="recorded (spread)")
+        ax.plot(flows[order], sim[order], "o-", color="#0072B2",
+                label="model through the sensor chain")
+        ax.plot(flows[order], full[order], "^--", color="#D55E00",
+                label="model at full resolution")
+        ax.set_xlabel("flow rate (gal/min)")
+        ax.set_ylabel(f"{s} mean of 200 ms peaks (g)")
+        ax.set_title(f"{s}: recorded vs model")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"{result.campaign.name}\naxial vibration peaks vs flow, preset "
+                 f"{result.preset.name}", fontsize=10)
+    return fig
+
+
+def findings(result: ValidationResult, threshold: float = 1.0) -> list[str]:
+    """Plain-language statements of where the model matches and where it does not: for each
+    compared feature (through the sensor chain and at full resolution), the mean
+    standardised residual over the lower and the upper half of the campaign's flows."""
+    flows = pd.Series({ev.id: ev.flow_gpm for ev in result.campaign.events})
+    median = float(flows.median())
+    low = flows.index[flows <= median]
+    high = flows.index[flows > median]
+    out = []
+    for label, res in (("through the sensor chain", result.residuals),
+                       ("at full resolution", result.residuals_full)):
+        for key in res.columns:
+            col = res[key].dropna()
+            if col.empty:
+                continue
+            parts = []
+            for name, ids in ((f"flows <= {median:g} gal/min", low),
+                              (f"flows > {median:g} gal/min", high)):
+                z = col.reindex(ids).dropna()
+                if z.empty:
+                    continue
+                m = float(z.mean())
+                verdict = ("over-predicts" if m > threshold else
+                           "under-predicts" if m < -threshold else "matches")
+                parts.append(f"{verdict} at {name} (mean z {m:+.1f}, {len(z)} events)")
+            if parts:
+                out.append(f"{key} {label}: the model " + "; ".join(parts) + ".")
+    return out
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return "" if math.isnan(v) else f"{v:.3g}"
+    return str(v)
+
+
+def _markdown_table(df: pd.DataFrame) -> str:
+    cols = [df.index.name or ""] + [str(c) for c in df.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for idx, row in df.iterrows():
+        lines.append("| " + " | ".join([str(idx)] + [_fmt(v) for v in row.to_numpy()]) + " |")
+    return "\n".join(lines)
+
+
+def write_report(result: ValidationResult, folder: str | os.PathLike[str],
+                 fmt: str = "md", command: str | None = None) -> Path:
+    """Write ``report.md`` (or ``report.html``) with its figures into ``folder``.
+
+    The report has: what was compared and how; a per-feature summary of the standardised
+    residuals; the peaks-vs-flow figure (recorded, model through the sensor chain, model at
+    full resolution); the mismatch heat map; one table per event.
+    """
+    if fmt not in ("md", "html"):
+        raise ValueError(f"fmt = {fmt!r} must be 'md' or 'html'")
+    from vadsim import plots
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    fig = _peaks_figure(result)
+    fig.savefig(out / "peaks_vs_flow.png", dpi=110)
+    res = result.residuals.dropna(axis=1, how="all")
+    res_full = result.residuals_full.dropna(axis=1, how="all")
+    heat = None
+    if not res.empty:
+        heat = "mismatch_heatmap.png"
+        table = pd.concat([res, res_full.add_suffix(" [full res.]")], axis=1)
+        table.index = [f"{e} ({result.campaign.event(e).flow_gpm:g} gpm)" for e in table.index]
+        plots.mismatch_heatmap(table, path=out / heat,
+                               title=f"{result.campaign.name}: (model - recorded) / spread")
+    summary = pd.DataFrame({
+        "mean z (sensor chain)": res.mean(),
+        "RMS z (sensor chain)": np.sqrt((res ** 2).mean()),
+        "events |z|>2": (res.abs() > 2).sum(),
+        "mean z (full resolution)": res_full.reindex(columns=res.columns).mean(),
+    })
+    summary.index.name = "feature"
+    ev_table = result.events_table()
+    camp = result.campaign
+    lines = [
+        f"# Validation report: {camp.name}",
+        "",
+        f"- tool {camp.tool}, bit {camp.bit}; preset `{result.preset.name}`; "
+        f"overrides {json.dumps(result.overrides) if result.overrides else 'none'}",
+        f"- {len(camp.events)} events; sensors: "
+        + ", ".join(f"{n} (dof {s.dof}, {s.rate_hz:g} Hz, {s.range_g:g} g"
+                    + (f", low-pass {s.lowpass_hz:g} Hz" if s.lowpass_hz else "") + ")"
+                    for n, s in camp.sensors.items()),
+        f"- runs of {result.settings['cycles']:g} cycles, last "
+        f"{result.settings['analyse_cycles']:g} analysed; vadsim {_version}; "
+        f"{_dt.datetime.now().isoformat(timespec='seconds')}",
+    ]
+    if command:
+        lines.append(f"- command: `{command}`")
+    lines += [
+        "",
+        "Simulated accelerations pass through each sensor's chain (low-pass, sampling at the "
+        "sensor rate, clipping) before their features are computed, as the recordings', "
+        "averaged over 8 sampling phases (a recording's phase is unknown). Residuals are "
+        "standardised by the recording's own spread (window-to-window, or a default of 10 % "
+        "for summary-only events) combined with the model's spread over sampling phases. The "
+        "model's features at full resolution (the solver's 20x oversampled signal, as the "
+        "dissertation compared) are shown too, standardised by the recording's spread.",
+        "",
+        "## Findings",
+        "",
+        *[f"- {line}" for line in findings(result)],
+        "",
+        "## Summary per feature",
+        "",
+        _markdown_table(summary),
+        "",
+        "## Peaks vs flow",
+        "",
+        "![peaks vs flow](peaks_vs_flow.png)",
+        "",
+    ]
+    if heat:
+        lines += ["## Standardised mismatch (event x feature x sensor)", "",
+                  f"![mismatch heat map]({heat})", ""]
+    lines += ["## Events", ""]
+    for ev in camp.events:
+        sim = result.simulations[ev.id]
+        rec = result.recorded[ev.id]
+        rows = []
+        for key, f in rec.items():
+            s = sim.sensor.get(key)
+            fu = sim.full.get(key)
+            rows.append({"feature": key, "recorded": f.value, "spread": f.spread,
+                         "model (sensor chain)": s.value if s else math.nan,
+                         "model (full resolution)": fu.value if fu else math.nan,
+                         "z": result.residuals.loc[ev.id].get(key, math.nan)})
+        lines += [
+            f"### {ev.id}: {ev.flow_gpm:g} gal/min ({sim.f_exc_hz:.1f} Hz), "
+            f"{ev.wob_klbf:g} klbf; model scenario {sim.scenario}, "
+            f"Z spring {sim.z['spring']:.2f}, Z impact {sim.z['impact']:.2f}",
+            "",
+            _markdown_table(pd.DataFrame(rows).set_index("feature")) if rows else "(no features)",
+            "",
+        ]
+    md = "\n".join(lines)
+    (out / "events.csv").write_text(ev_table.to_csv())
+    if fmt == "md":
+        path = out / "report.md"
+        path.write_text(md)
+        return path
+    path = out / "report.html"
+    path.write_text(_md_to_html(md, camp.name))
+    return path
+
+
+def _md_to_html(md: str, title: str) -> str:
+    """A small Markdown-to-HTML rendering of the report (headings, lists, tables, images)."""
+    import html
+
+    out = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
+           "</title><style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
+           "table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;"
+           "padding:2px 6px;text-align:right}img{max-width:100%}</style></head><body>"]
+    table: list[str] = []
+
+    def flush() -> None:
+        if table:
+            rows = [r.strip("|").split("|") for r in table if not set(r) <= set("|-")]
+            out.append("<table>" + "".join(
+                "<tr>" + "".join((f"<th>{html.escape(c.strip())}</th>" if i == 0 else
+                                  f"<td>{html.escape(c.strip())}</td>") for c in r) + "</tr>"
+                for i, r in enumerate(rows)) + "</table>")
+            table.clear()
+
+    for line in md.splitlines():
+        if line.startswith("|"):
+            table.append(line)
+            continue
+        flush()
+        if line.startswith("#"):
+            level = len(line) - len(line.lstrip("#"))
+            out.append(f"<h{level}>{html.escape(line.lstrip('#').strip())}</h{level}>")
+        elif line.startswith("!["):
+            src = line[line.index("(") + 1:line.rindex(")")]
+            out.append(f"<img src='{html.escape(src)}'>")
+        elif line.startswith("- "):
+            out.append(f"<li>{html.escape(line[2:])}</li>")
+        elif line.strip():
+            out.append(f"<p>{html.escape(line)}</p>")
+    flush()
+    out.append("</body></html>")
+    return "\n".join(out)
