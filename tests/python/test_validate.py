@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from vadsim.calibrate import calibrate, thesis_targets
 from vadsim.recordings import load_campaign, save_campaign
 from vadsim.synthetic import synthetic_campaign
