@@ -379,7 +379,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     res = calibrate(args.campaign, args.param, bounds=bounds or None, start=start or None,
                     targets=args.targets, keys=args.keys, resolution=args.resolution,
-                    overrides=_parse_overrides(args.set or []), global_stage=not args.no_global,
+                    overrides=_parse_overrides(args.set or []),
+                    global_stage={"scan": "scan", "de": "de", "none": False}[args.global_stage],
+                    n_global=args.n_global, n_starts=args.starts,
                     popsize=args.popsize, maxiter=args.maxiter, seed=args.seed,
                     profile_points=args.profile, cycles=args.cycles,
                     analyse_cycles=args.analyse, workers=args.workers, callback=report)
@@ -614,9 +616,14 @@ def build_parser() -> argparse.ArgumentParser:
                     help="feature keys to fit (default: all that both sides have)")
     ca.add_argument("--resolution", default="sensor", choices=["sensor", "full"],
                     help="simulated features through the sensor chain or at full resolution")
-    ca.add_argument("--no-global", action="store_true", help="skip the global stage")
-    ca.add_argument("--popsize", type=int, default=8)
-    ca.add_argument("--maxiter", type=int, default=10)
+    ca.add_argument("--global", dest="global_stage", default="scan",
+                    choices=["scan", "de", "none"],
+                    help="global stage: dense Sobol scan (default), differential evolution, "
+                    "or none (local polish from --start only)")
+    ca.add_argument("--n-global", type=int, default=512, help="scan: points (512)")
+    ca.add_argument("--starts", type=int, default=3, help="scan: local polishes (3)")
+    ca.add_argument("--popsize", type=int, default=8, help="de: population factor (8)")
+    ca.add_argument("--maxiter", type=int, default=10, help="de: generations (10)")
     ca.add_argument("--seed", type=int, default=1)
     ca.add_argument("--profile", type=int, default=0, metavar="N",
                     help="profile the cost along each parameter at N points")
