@@ -209,7 +209,8 @@ def calibrate(
         Simulated features ``"sensor"`` (through each sensor chain, for recordings) or
         ``"full"`` (solver resolution, as the dissertation's simulations).
     global_stage
-        ``"scan"`` (default): evaluate ``n_global`` scrambled-Sobol points over the bounds,
+        ``"scan"`` (default): evaluate ``n_global`` (rounded up to a power of two)
+        scrambled-Sobol points over the bounds,
         then polish locally from the ``n_starts`` best distinct ones. The basin of ``l0`` is
         under 1 % wide (the excitation phase beta (x2 - x3) moves 1.9 rad per 0.005 of
         ``l0``), so the scan must be dense: 512 points space ``l0`` by ~0.002 over 0.4-1.4.
@@ -338,7 +339,9 @@ def calibrate(
         if global_stage in ("scan", True):
             from scipy.stats import qmc
 
-            pts = qmc.Sobol(d=len(names), scramble=True, seed=seed).random(n_global)
+            # Sobol' points balance only in powers of two: round n_global up to one.
+            m = max(1, math.ceil(math.log2(max(n_global, 2))))
+            pts = qmc.Sobol(d=len(names), scramble=True, seed=seed).random_base2(m)
             scored = []
             for u in pts:
                 vals = {n: lim[n][0] + float(ui) * (lim[n][1] - lim[n][0])
