@@ -66,7 +66,8 @@ def thesis_targets(campaign: Campaign) -> dict[str, dict[str, Feature]]:
         ref = ev.reference or {}
         t: dict[str, Feature] = {}
         peak = ref.get("sim_peak_g")
-        misprint = "printed" in str(ref.get("note", ""))  # e.g. 9.5in event 8 "04g"
+        note = str(ref.get("note", ""))
+        misprint = "peak" in note and "printed" in note  # 9.5in event 8's "04g"
         if peak is not None and not misprint and not (isinstance(peak, float)
                                                      and math.isnan(peak)):
             t["x1_peak_mean_g"] = Feature(float(peak), max(0.1 * float(peak), 1.5), 1)
