@@ -27,7 +27,10 @@ __version__ = "0.1.0"
 
 # The analysis modules pull in xarray, matplotlib and dask: loaded on first use, so that
 # `import vadsim` stays quick for a single run.
-_LAZY = ("calibrate", "design", "features", "plots", "sweep", "synthetic", "thesis", "validate")
+_LAZY = (
+    "calibrate", "design", "features", "locate", "plots", "sweep", "synthetic", "thesis",
+    "validate",
+)
 
 
 def __getattr__(name: str):
@@ -51,6 +54,7 @@ __all__ = [
     "features",
     "get_preset",
     "labels",
+    "locate",
     "make_params",
     "param_names",
     "plots",
