@@ -292,23 +292,28 @@ void CvodeSolver::fold_stats() {
 SolverStats CvodeSolver::stats() const {
   SolverStats s = done_;
   if (!initialised_) return s;
-  long v = 0;
-  CVodeGetNumSteps(h_.mem, &v);
-  s.steps += v;
-  CVodeGetNumRhsEvals(h_.mem, &v);
-  s.rhs_evals += v;
-  CVodeGetNumJacEvals(h_.mem, &v);
-  s.jac_evals += v;
-  CVodeGetNumLinSolvSetups(h_.mem, &v);
-  s.lin_setups += v;
-  CVodeGetNumErrTestFails(h_.mem, &v);
-  s.err_test_fails += v;
-  CVodeGetNumNonlinSolvIters(h_.mem, &v);
-  s.nonlin_iters += v;
-  CVodeGetNumNonlinSolvConvFails(h_.mem, &v);
-  s.nonlin_conv_fails += v;
-  CVodeGetNumGEvals(h_.mem, &v);
-  s.root_evals += v;
+  using Getter = int (*)(void*, long*);
+  struct Counter {
+    Getter get;
+    long SolverStats::*field;
+    const char* call;
+  };
+  static const Counter counters[] = {
+      {CVodeGetNumSteps, &SolverStats::steps, "CVodeGetNumSteps"},
+      {CVodeGetNumRhsEvals, &SolverStats::rhs_evals, "CVodeGetNumRhsEvals"},
+      {CVodeGetNumJacEvals, &SolverStats::jac_evals, "CVodeGetNumJacEvals"},
+      {CVodeGetNumLinSolvSetups, &SolverStats::lin_setups, "CVodeGetNumLinSolvSetups"},
+      {CVodeGetNumErrTestFails, &SolverStats::err_test_fails, "CVodeGetNumErrTestFails"},
+      {CVodeGetNumNonlinSolvIters, &SolverStats::nonlin_iters, "CVodeGetNumNonlinSolvIters"},
+      {CVodeGetNumNonlinSolvConvFails, &SolverStats::nonlin_conv_fails,
+       "CVodeGetNumNonlinSolvConvFails"},
+      {CVodeGetNumGEvals, &SolverStats::root_evals, "CVodeGetNumGEvals"},
+  };
+  for (const auto& c : counters) {
+    long v = 0;
+    check(c.get(h_.mem, &v), c.call, 0);
+    s.*c.field += v;
+  }
   return s;
 }
 
