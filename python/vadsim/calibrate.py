@@ -377,8 +377,7 @@ def calibrate(
         elif global_stage is not False:
             raise ValueError(f"global_stage = {global_stage!r} must be 'scan', 'de' or False")
         fits = [polish(c) for c in candidates]
-        k_best = min(range(len(fits)), key=lambda k: fits[k].cost)
-        ls, best = fits[k_best], candidates[k_best]
+        ls = min(fits, key=lambda fr: fr.cost)
         if "l0" in names and alias_stripes > 0:
             # l0 enters the excitation phase beta (x2 - x3) with x2 - x3 ~ (L3 - LI - LOn) l0,
             # which repeats every 2 pi / (beta (L3 - LI - LOn)) in l0 (0.0166 for the 7in
@@ -395,12 +394,11 @@ def calibrate(
                     continue
                 fit = polish(cand)
                 if fit.cost < ls.cost:
-                    ls, best = fit, cand
+                    ls = fit
+        # least_squares only accepts steps that lower its cost, so the polished point is never
+        # worse than its start, and ls.fun already holds its residuals: no re-evaluation.
         est = dict(zip(names, (float(v) for v in ls.x * scale), strict=True))
-        r_after = residuals(est)
-        if _soft_l1(r_after) > _soft_l1(residuals(best)):  # polish made it worse: keep start
-            est = best
-            r_after = residuals(est)
+        r_after = np.asarray(ls.fun, dtype=float)
         # Uncertainty from the local Jacobian (in parameter units).
         jac = ls.jac / scale
         m, n = jac.shape

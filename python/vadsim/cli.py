@@ -23,16 +23,24 @@ from vadsim.simulate import SURFACES, SimulationResult, SolverError, simulate
 __all__ = ["main"]
 
 
-def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for item in items:
+def _parse_pairs(items: Sequence[str] | None, flag: str, example: str = "") -> dict[str, str]:
+    out = {}
+    for item in items or []:
         name, sep, value = item.partition("=")
         if not sep:
-            raise ValueError(f"--set {item!r}: expected NAME=VALUE, e.g. --set kS=4.7e5")
+            hint = f", e.g. {flag} {example}" if example else ""
+            raise ValueError(f"{flag} {item!r}: expected NAME=VALUE{hint}")
+        out[name.strip()] = value.strip()
+    return out
+
+
+def _parse_overrides(items: Sequence[str] | None) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for name, value in _parse_pairs(items, "--set", "kS=4.7e5").items():
         try:
-            out[name.strip()] = float(value)
+            out[name] = float(value)
         except ValueError as exc:
-            raise ValueError(f"--set {item!r}: {value!r} is not a number") from exc
+            raise ValueError(f"--set {name}={value}: {value!r} is not a number") from exc
     return out
 
 
@@ -349,16 +357,6 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         print(z.round(2).to_string())
     print(f"report: {path}")
     return 0
-
-
-def _parse_pairs(items: Sequence[str], flag: str) -> dict[str, str]:
-    out = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ValueError(f"{flag} {item!r}: expected NAME=VALUE")
-        out[name.strip()] = value.strip()
-    return out
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:

@@ -24,7 +24,7 @@ from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from vadsim._checks import finite_1d, finite_positive, number
 
-__all__ = ["LOWPASS_ORDER", "MIN_OVERSAMPLING", "sensor_chain"]
+__all__ = ["LOWPASS_ORDER", "MIN_OVERSAMPLING", "SIMULATION_OVERSAMPLING", "sensor_chain"]
 
 LOWPASS_ORDER: int = 4
 """Order of the Butterworth anti-alias low-pass."""
@@ -38,6 +38,12 @@ so the fine grid must be much faster than the sensor. Below 4x the interpolation
 low-pass the signal near the sensor's Nyquist frequency by more than the sensor does. Use 20x or
 more (the reference solution is sampled at 20 kHz for a 1024 Hz sensor).
 """
+
+SIMULATION_OVERSAMPLING: int = 20
+"""Simulated signals are recorded at 20x the fastest sensor's rate before the chain samples
+them (the chain needs at least :data:`MIN_OVERSAMPLING`; 20x keeps the interpolation error
+of a 1 ms impact spike small)."""
+
 
 _UNIFORM_RTOL: float = 1e-6
 # As RECORDINGS.md for the recorded time column: steps equal to 1e-6 of the step.

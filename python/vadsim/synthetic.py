@@ -18,7 +18,7 @@ import pandas as pd
 
 from vadsim.presets import Preset, get_preset
 from vadsim.recordings import Campaign, Event, Sensor
-from vadsim.sensor import sensor_chain
+from vadsim.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 from vadsim.simulate import G, simulate
 
 __all__ = ["DEFAULT_SENSORS", "synthetic_campaign"]
@@ -29,7 +29,6 @@ DEFAULT_SENSORS: dict[str, Sensor] = {
 }
 """The field campaigns' sensors: bit sub (dof 1) and above the motor (dof 5), 1024 Hz, 250 g."""
 
-FINE_RATE_FACTOR = 20
 
 
 def synthetic_campaign(
@@ -84,7 +83,7 @@ def synthetic_campaign(
         raise ValueError(f"wob_klbf has {len(wobs)} values for {len(flows)} flows")
     rng = np.random.default_rng(seed)
     settle = cycles - analyse_cycles
-    fine = FINE_RATE_FACTOR * max(s.rate_hz for s in sensors.values())
+    fine = SIMULATION_OVERSAMPLING * max(s.rate_hz for s in sensors.values())
     events: list[Event] = []
     for i, (q, wob) in enumerate(zip(flows, wobs, strict=True)):
         f = p.params["alpha"] * q / (2 * math.pi)

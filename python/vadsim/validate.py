@@ -32,7 +32,7 @@ from vadsim import __version__ as _version
 from vadsim.features import Feature, event_features, summary_features
 from vadsim.presets import Preset, get_preset, load_preset_file
 from vadsim.recordings import Campaign, Event, load_campaign, thesis_campaigns
-from vadsim.sensor import sensor_chain
+from vadsim.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 from vadsim.simulate import G, SimulationResult, simulate
 
 __all__ = [
@@ -48,10 +48,6 @@ __all__ = [
     "write_report",
 ]
 
-FINE_RATE_FACTOR = 20
-"""Simulated signals are recorded at 20x the fastest sensor's rate before the sensor chain
-samples them (the chain needs at least 4x; 20x keeps the interpolation error of a 1 ms spike
-small)."""
 
 
 def load_any_campaign(source: str | os.PathLike[str] | Campaign) -> Campaign:
@@ -135,7 +131,7 @@ def simulate_event(
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
     preset = preset or campaign_preset(campaign)
     rates = [s.rate_hz for s in campaign.sensors.values()]
-    fine = FINE_RATE_FACTOR * max(rates)
+    fine = SIMULATION_OVERSAMPLING * max(rates)
     r: SimulationResult = simulate(
         preset, event.flow_gpm, cycles=cycles, analyse_cycles=analyse_cycles,
         overrides=overrides, wob_klbf=event.wob_klbf, law=law, extras=list(extras),
