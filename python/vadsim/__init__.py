@@ -28,8 +28,8 @@ __version__ = "0.1.0"
 # The analysis modules pull in xarray, matplotlib and dask: loaded on first use, so that
 # `import vadsim` stays quick for a single run.
 _LAZY = (
-    "calibrate", "design", "features", "locate", "plots", "sweep", "synthetic", "thesis",
-    "validate",
+    "blind", "calibrate", "candidates", "design", "diagnose", "features", "locate", "plots",
+    "sweep", "synthetic", "thesis", "validate",
 )
 
 
@@ -48,8 +48,11 @@ __all__ = [
     "Preset",
     "SimulationResult",
     "SolverError",
+    "blind",
     "calibrate",
+    "candidates",
     "design",
+    "diagnose",
     "extra_force",
     "features",
     "get_preset",

@@ -10,7 +10,7 @@ RECORDINGS.md format, ready to save with :func:`~vadsim.recordings.save_campaign
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -38,6 +38,7 @@ def synthetic_campaign(
     overrides: Mapping[str, float] | None = None,
     extras: Sequence[Any] = (),
     law: str | None = None,
+    measurement: Callable[[str, np.ndarray, float], np.ndarray] | None = None,
     wob_klbf: float | Sequence[float] | None = None,
     sensors: Mapping[str, Sensor] | None = None,
     duration_s: float | None = None,
@@ -57,6 +58,10 @@ def synthetic_campaign(
         One event per flow rate (gal/min).
     overrides, extras, law
         Changes to the model (the "truth" a calibration or diagnosis should recover).
+    measurement
+        What happens to each sensor's true acceleration before its chain,
+        ``measurement(sensor_name, a_g, fine_rate_hz) -> a_g`` (see
+        :data:`vadsim.validate.Measurement`); e.g. a mount resonance.
     wob_klbf
         One WOB for all events or one per event (default: the preset's).
     sensors
@@ -96,7 +101,10 @@ def synthetic_campaign(
         clipped: dict[str, np.ndarray] = {}
         t_s = None
         for sname, s in sensors.items():
-            t_s, a_s, clip = sensor_chain(r.t, r.a[:, s.dof - 1] / G, rate_hz=s.rate_hz,
+            a_true = r.a[:, s.dof - 1] / G
+            if measurement is not None:
+                a_true = np.asarray(measurement(sname, a_true, fine), dtype=float)
+            t_s, a_s, clip = sensor_chain(r.t, a_true, rate_hz=s.rate_hz,
                                           range_g=s.range_g, lowpass_hz=s.lowpass_hz,
                                           phase=phase, noise_g=noise_g, rng=rng)
             columns[f"{sname}_g"] = a_s

@@ -19,7 +19,7 @@ import datetime as _dt
 import json
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,8 +41,11 @@ __all__ = [
     "campaign_preset",
     "event_residuals",
     "findings",
+    "Measurement",
     "load_any_campaign",
+    "measure_event",
     "recorded_features",
+    "run_event",
     "simulate_event",
     "validate",
     "write_report",
@@ -101,6 +104,34 @@ def _sensor_groups(campaign: Campaign) -> dict[float, list[str]]:
     return groups
 
 
+Measurement = Callable[[str, np.ndarray, float], np.ndarray]
+"""What happens to a sensor's true acceleration before its recorded chain:
+``measurement(sensor_name, a_g, fine_rate_hz) -> a_g`` on the solver's fine grid (e.g. a mount
+resonance or an axial-lateral coupling, :mod:`vadsim.candidates`). ``None``: nothing."""
+
+
+def run_event(
+    campaign: Campaign,
+    event: Event,
+    *,
+    preset: Preset | None = None,
+    overrides: Mapping[str, float] | None = None,
+    extras: Sequence[Any] = (),
+    law: str | None = None,
+    cycles: float = 400,
+    analyse_cycles: float = 200,
+) -> SimulationResult:
+    """Run the model at one event's flow and WOB, recording the steady window on a grid fine
+    enough for every sensor of the campaign (:data:`vadsim.sensor.SIMULATION_OVERSAMPLING`)."""
+    preset = preset or campaign_preset(campaign)
+    fine = SIMULATION_OVERSAMPLING * max(s.rate_hz for s in campaign.sensors.values())
+    return simulate(
+        preset, event.flow_gpm, cycles=cycles, analyse_cycles=analyse_cycles,
+        overrides=overrides, wob_klbf=event.wob_klbf, law=law, extras=list(extras),
+        record="window", output_rate_hz=fine,
+    )
+
+
 def simulate_event(
     campaign: Campaign,
     event: Event,
@@ -115,9 +146,28 @@ def simulate_event(
     noise_g: float = 0.0,
     seed: int | None = None,
     keep_signals: bool = False,
+    measurement: Measurement | None = None,
 ) -> EventSimulation:
     """Simulate one event and compute its features through each sensor's chain and at full
-    resolution.
+    resolution (:func:`run_event` then :func:`measure_event`)."""
+    r = run_event(campaign, event, preset=preset, overrides=overrides, extras=extras, law=law,
+                  cycles=cycles, analyse_cycles=analyse_cycles)
+    return measure_event(campaign, event, r, phases=phases, noise_g=noise_g, seed=seed,
+                         keep_signals=keep_signals, measurement=measurement)
+
+
+def measure_event(
+    campaign: Campaign,
+    event: Event,
+    r: SimulationResult,
+    *,
+    phases: int = 8,
+    noise_g: float = 0.0,
+    seed: int | None = None,
+    keep_signals: bool = False,
+    measurement: Measurement | None = None,
+) -> EventSimulation:
+    """Features of a run through each sensor's chain and at full resolution.
 
     A recording's sampling phase is unknown, and a 1 ms impact spike sampled at 1024 Hz shows
     a peak that depends on it (33-40 g at 400 gal/min for the 7in tool). The features through
@@ -126,17 +176,14 @@ def simulate_event(
     deviation, the model's own uncertainty about a recording's features. It matters most
     where the excitation is nearly commensurate with the sampling (64 Hz at 1024 Hz: 16.0
     samples per cycle), where a recording keeps one phase for its whole length.
+
+    Kept apart from the run so that measurement-side physics (``measurement``) can be varied
+    without running the model again.
     """
     if not (isinstance(phases, int) and phases >= 1):
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
-    preset = preset or campaign_preset(campaign)
     rates = [s.rate_hz for s in campaign.sensors.values()]
     fine = SIMULATION_OVERSAMPLING * max(rates)
-    r: SimulationResult = simulate(
-        preset, event.flow_gpm, cycles=cycles, analyse_cycles=analyse_cycles,
-        overrides=overrides, wob_klbf=event.wob_klbf, law=law, extras=list(extras),
-        record="window", output_rate_hz=fine,
-    )
     rng = np.random.default_rng(seed)
     sensor_feats: dict[str, Feature] = {}
     full_feats: dict[str, Feature] = {}
@@ -144,6 +191,9 @@ def simulate_event(
     kept: dict[str, np.ndarray] = {}
     for rate, names in _sensor_groups(campaign).items():
         full = {name: r.a[:, campaign.sensors[name].dof - 1] / G for name in names}
+        if measurement is not None:
+            full = {name: np.asarray(measurement(name, a, fine), dtype=float)
+                    for name, a in full.items()}
         per_phase: list[dict[str, Feature]] = []
         for k in range(phases):
             sampled, clipped = {}, {}
@@ -253,6 +303,7 @@ def validate(
     analyse_cycles: float = 200,
     workers: int | None = None,
     preset: Preset | None = None,
+    measurement: Measurement | None = None,
 ) -> ValidationResult:
     """Simulate every event of a campaign (in parallel threads) and compare features.
 
@@ -267,7 +318,8 @@ def validate(
     with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
         futures = {ev.id: pool.submit(simulate_event, camp, ev, preset=preset,
                                       overrides=overrides, extras=extras, law=law,
-                                      cycles=cycles, analyse_cycles=analyse_cycles)
+                                      cycles=cycles, analyse_cycles=analyse_cycles,
+                                      measurement=measurement)
                    for ev in camp.events}
         sims = {k: f.result() for k, f in futures.items()}
     recorded = {ev.id: recorded_features(camp, ev, sims[ev.id].f_exc_hz) for ev in camp.events}

@@ -1,0 +1,815 @@
+"""Missing-physics diagnosis: locate a mismatch, fit candidate physics, select on held-out data.
+
+Why this module exists: the dissertation could only say in prose what its model probably
+misses ("hydraulics at high flow"). A diagnosis here does it with numbers:
+
+1. **Locate.** The base model is compared with the campaign feature by feature
+   (:func:`vadsim.validate.measure_event`: the same sensor chain, standardised residuals) and
+   :func:`vadsim.locate.locate` says which features of which sensor are offset or trend with
+   flow; events whose RMS residual exceeds 2 are listed too.
+2. **Fit.** Every candidate of :mod:`vadsim.candidates` is fitted by least squares on the
+   standardised residuals of all events: a grid over its parameter box (11 points in 1-D,
+   8 x 4 in 2-D) and a local refinement (bounded Brent in 1-D, Nelder-Mead in 2-D). A 95 %
+   interval comes from the cost profile: ``RSS <= RSS_min + 3.84 s^2`` with
+   ``s^2 = RSS_min / (n - k)``.
+3. **Score on held-out events.** Leave-one-flow-out folds and a block that holds out the
+   highest flows (the top 30 %, at least two events). Each fold refits on its training events
+   alone: among the parameter values evaluated on every event (the grid and the full fit's
+   refinement, so no run is repeated per fold) it takes the one with the lowest *training*
+   cost, refined in 1-D by the parabola through it and its neighbours, and predicts the
+   held-out events with it. The base model, which has nothing to fit, is scored on the same
+   events. The held-out error
+   is the RMS standardised residual pooled over all held-out predictions.
+4. **Select.** Candidates are ranked by an AICc computed on the held-out residuals,
+   ``n ln(MSE) + 2k + 2k(k+1)/(n-k-1)`` (``n`` held-out residuals, ``k`` fitted parameters);
+   the base model is the entry ``"none"`` with ``k = 0``. The best candidate is chosen only if
+   it beats ``"none"`` by ``min_delta`` (default 10, "very strong" on Burnham and Anderson's
+   scale) *and* cuts the held-out RMS by ``min_reduction`` (default 30 %); otherwise the
+   answer is ``"none"``. Both thresholds are checked by tests and by the blind benchmark on
+   campaigns the true model wrote.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing as mp
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import optimize
+
+from vadsim.candidates import CANDIDATES, Candidate, keys_for
+from vadsim.features import Feature
+from vadsim.locate import Mismatch, locate
+from vadsim.presets import Preset
+from vadsim.recordings import Campaign
+from vadsim.simulate import SimulationResult, SolverError
+from vadsim.validate import (
+    campaign_preset,
+    event_residuals,
+    load_any_campaign,
+    measure_event,
+    recorded_features,
+    run_event,
+)
+
+__all__ = ["CandidateFit", "Diagnosis", "diagnose", "predict", "write_diagnosis_report"]
+
+FAILED_RESIDUAL = 10.0
+"""Residual of every feature of an event whose run fails or loses a compared feature."""
+
+GRID_1D = 11
+GRID_2D = (8, 4)
+
+
+# ------------------------------------------------------------------------------ evaluation
+
+@dataclass
+class _EventEval:
+    z: np.ndarray            # standardised residuals, aligned with the event's feature keys
+    sim: np.ndarray          # simulated feature values, same order
+
+
+class _Evaluator:
+    """Standardised residuals of every event for a candidate and values, cached.
+
+    Base runs are kept, so measurement-side candidates only re-measure."""
+
+    def __init__(self, campaign: Campaign, preset: Preset, overrides: Mapping[str, float],
+                 cycles: float, analyse_cycles: float, phases: int, workers: int) -> None:
+        self.campaign = campaign
+        self.preset = preset
+        self.overrides = dict(overrides)
+        self.cycles = cycles
+        self.analyse_cycles = analyse_cycles
+        self.phases = phases
+        self.workers = workers
+        self.events = {ev.id: ev for ev in campaign.events}
+        alpha = float(preset.params["alpha"])
+        self.recorded = {ev.id: recorded_features(campaign, ev, alpha * ev.flow_gpm / (2 * math.pi))
+                         for ev in campaign.events}
+        self.keys: dict[str, list[str]] = {}
+        self._runs: dict[str, SimulationResult | None] = {}
+        self._cache: dict[tuple, _EventEval] = {}
+        self.n_evals = 0
+        self.pool = ThreadPoolExecutor(max_workers=workers)
+
+    def close(self) -> None:
+        self.pool.shutdown()
+
+    def _base_run(self, eid: str) -> SimulationResult | None:
+        if eid not in self._runs:
+            try:
+                self._runs[eid] = run_event(self.campaign, self.events[eid], preset=self.preset,
+                                            overrides=self.overrides, cycles=self.cycles,
+                                            analyse_cycles=self.analyse_cycles)
+            except SolverError:
+                self._runs[eid] = None
+        return self._runs[eid]
+
+    def _one(self, cand: Candidate | None, values: tuple[float, ...], eid: str) -> _EventEval:
+        ev = self.events[eid]
+        try:
+            if cand is None or cand.side == "measurement":
+                r = self._base_run(eid)
+                if r is None:
+                    raise SolverError("base run failed")
+                meas = None
+                if cand is not None:
+                    meas = cand.change(dict(zip((p.name for p in cand.params), values,
+                                                strict=True))).measurement
+                sim = measure_event(self.campaign, ev, r, phases=self.phases, measurement=meas)
+            else:
+                ch = cand.change(dict(zip((p.name for p in cand.params), values, strict=True)))
+                r = run_event(self.campaign, ev, preset=self.preset,
+                              overrides={**self.overrides, **ch.overrides}, extras=ch.extras,
+                              law=ch.law, cycles=self.cycles, analyse_cycles=self.analyse_cycles)
+                sim = measure_event(self.campaign, ev, r, phases=self.phases)
+        except SolverError:
+            sim = None
+        rec = self.recorded[eid]
+        if eid not in self.keys:  # the base model defines which features are compared
+            if sim is None:
+                raise RuntimeError(f"event {eid}: the base model's run failed; cannot diagnose")
+            self.keys[eid] = sorted(event_residuals(sim, rec))
+        keys = self.keys[eid]
+        if sim is None:
+            n = len(keys)
+            return _EventEval(np.full(n, FAILED_RESIDUAL), np.full(n, np.nan))
+        zd = event_residuals(sim, rec)
+        z = np.array([zd.get(k, FAILED_RESIDUAL) for k in keys])
+        vals = np.array([sim.sensor.get(k, Feature(math.nan, math.nan, 0)).value for k in keys])
+        return _EventEval(z, vals)
+
+    def evaluate(self, cand: Candidate | None, points: Sequence[tuple[float, ...]],
+                 eids: Sequence[str]) -> dict[tuple[tuple[float, ...], str], _EventEval]:
+        """Evaluations of every (point, event), run in parallel where not cached."""
+        key = cand.key if cand is not None else "none"
+        todo = [(p, e) for p in points for e in eids if (key, p, e) not in self._cache]
+        missing = [e for e in eids if e not in self.keys]  # the base model's keys first:
+        base = {e: self.pool.submit(self._one, None, (), e) for e in missing}  # they define
+        for e, f in base.items():                                    # what is compared
+            self._cache[("none", (), e)] = f.result()
+            self.n_evals += 1
+        todo = [(p, e) for p, e in todo if (key, p, e) not in self._cache]
+        futures = {(p, e): self.pool.submit(self._one, cand, p, e) for p, e in todo}
+        for (p, e), f in futures.items():
+            self._cache[(key, p, e)] = f.result()
+            self.n_evals += 1
+        return {(p, e): self._cache[(key, p, e)] for p in points for e in eids}
+
+    def rss(self, cand: Candidate | None, point: tuple[float, ...], eids: Sequence[str]) -> float:
+        ev = self.evaluate(cand, [point], eids)
+        return float(sum(np.sum(ev[(point, e)].z ** 2) for e in eids))
+
+
+# ---------------------------------------------------------------------------------- results
+
+@dataclass
+class CandidateFit:
+    """One candidate fitted to the campaign and scored on held-out events."""
+
+    key: str
+    id: str
+    k: int
+    values: dict[str, float]
+    parameters: dict[str, Any]
+    interval: dict[str, tuple[float, float]]
+    rss: float
+    n: int
+    aicc_train: float
+    heldout_rms: float
+    heldout_rms_lofo: float
+    heldout_rms_block: float
+    score: float
+    heldout: dict[str, dict[str, float]] = field(default_factory=dict, repr=False)
+    heldout_sim: dict[str, dict[str, float]] = field(default_factory=dict, repr=False)
+    fold_values: dict[str, dict[str, float]] = field(default_factory=dict)
+    n_evals: int = 0
+
+    def row(self) -> dict[str, Any]:
+        """A JSON-ready ranking entry."""
+        return {"candidate": self.id, "key": self.key, "k": self.k,
+                "parameters": self.parameters,
+                "interval": {k: list(v) for k, v in self.interval.items()},
+                "heldout_rms": self.heldout_rms, "heldout_rms_lofo": self.heldout_rms_lofo,
+                "heldout_rms_block": self.heldout_rms_block, "score": self.score,
+                "aicc_train": self.aicc_train, "rss_train": self.rss, "n_train": self.n}
+
+
+@dataclass
+class Diagnosis:
+    """Everything a diagnosis found; :meth:`as_json` is what ``vadsim diagnose --json`` prints."""
+
+    campaign: Campaign
+    preset: Preset
+    located: list[Mismatch]
+    located_events: list[dict[str, Any]]
+    baseline: CandidateFit
+    ranking: list[CandidateFit]
+    chosen: CandidateFit | None
+    recorded: dict[str, dict[str, Feature]]
+    keys: dict[str, list[str]]
+    baseline_sim: dict[str, dict[str, float]]
+    folds: list[tuple[str, list[str], list[str]]]
+    settings: dict[str, Any]
+    elapsed_s: float
+    n_evals: int
+    prediction: dict[str, Any] | None = None
+
+    @property
+    def missing_physics(self) -> str:
+        """The chosen candidate's id, or ``"none"``."""
+        return self.chosen.id if self.chosen is not None else "none"
+
+    def as_json(self) -> dict[str, Any]:
+        """One JSON-ready object (the keys ``vadsim diagnose --json`` promises)."""
+        best = self.chosen
+        out: dict[str, Any] = {
+            "campaign": self.campaign.name,
+            "missing_physics": self.missing_physics,
+            "parameters": best.parameters if best else {},
+            "intervals": {k: list(v) for k, v in best.interval.items()} if best else {},
+            "located": [m.as_dict() for m in self.located],
+            "located_events": self.located_events,
+            "heldout_error_before": self.baseline.heldout_rms,
+            "heldout_error_after": best.heldout_rms if best else self.baseline.heldout_rms,
+            "ranking": [self.baseline.row()] + [f.row() for f in self.ranking],
+            "thresholds": {k: self.settings[k] for k in ("min_delta", "min_reduction")},
+            "elapsed_s": self.elapsed_s,
+            "evaluations": self.n_evals,
+        }
+        if self.prediction is not None:
+            out["prediction"] = self.prediction
+        return _jsonable(out)
+
+    def summary(self) -> str:
+        """A few lines for a terminal."""
+        lines = [f"{self.campaign.name}: {len(self.campaign.events)} events, "
+                 f"{self.n_evals} evaluations in {self.elapsed_s:.0f} s"]
+        if self.located:
+            lines.append("located: " + "; ".join(m.describe() for m in self.located[:4]))
+        else:
+            lines.append("located: no feature is offset or trends with flow beyond the threshold")
+        lines.append(f"{'candidate':26s} {'k':>2s} {'held-out RMS (LOFO/block)':>26s} "
+                     f"{'score':>9s}  parameters")
+        for f in [self.baseline, *self.ranking]:
+            par = ", ".join(f"{k}={_fmt(v)}" for k, v in f.parameters.items())
+            lines.append(f"{f.key:26s} {f.k:2d} {f.heldout_rms:6.3f} ({f.heldout_rms_lofo:.2f}/"
+                         f"{f.heldout_rms_block:.2f}) {f.score:9.1f}  {par}")
+        if self.chosen is None:
+            lines.append("missing physics: none (no candidate beats the base model by the "
+                         "thresholds)")
+        else:
+            c = self.chosen
+            par = ", ".join(
+                f"{k} = {_fmt(v)}" + (f" [{_fmt(c.interval[k][0])}, {_fmt(c.interval[k][1])}]"
+                                      if k in c.interval else "")
+                for k, v in c.parameters.items())
+            lines.append(f"missing physics: {c.id} ({par}); held-out RMS "
+                         f"{self.baseline.heldout_rms:.2f} -> {c.heldout_rms:.2f}")
+        if self.prediction:
+            p = self.prediction
+            lines.append(f"prediction of {p['campaign']}: RMS {p['error_before']:.2f} -> "
+                         f"{p['error_after']:.2f}")
+        return "\n".join(lines)
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    return obj
+
+
+# ------------------------------------------------------------------------------------ folds
+
+def make_folds(campaign: Campaign, block_fraction: float = 0.3
+               ) -> list[tuple[str, list[str], list[str]]]:
+    """Leave-one-flow-out folds and one high-flow block: ``(name, train ids, test ids)``."""
+    flows = sorted({ev.flow_gpm for ev in campaign.events})
+    if len(flows) < 3:
+        raise ValueError(f"campaign {campaign.name!r} has {len(flows)} distinct flows; a "
+                         "held-out score needs at least 3")
+    folds = []
+    for q in flows:
+        test = [ev.id for ev in campaign.events if ev.flow_gpm == q]
+        train = [ev.id for ev in campaign.events if ev.flow_gpm != q]
+        folds.append((f"flow {q:g}", train, test))
+    n_block = max(2, int(math.ceil(block_fraction * len(flows))))
+    n_block = min(n_block, len(flows) - 2)
+    top = set(flows[-n_block:])
+    test = [ev.id for ev in campaign.events if ev.flow_gpm in top]
+    train = [ev.id for ev in campaign.events if ev.flow_gpm not in top]
+    folds.append((f"block >= {min(top):g}", train, test))
+    return folds
+
+
+# ------------------------------------------------------------------------------------ fitting
+
+def _grid(cand: Candidate) -> list[tuple[float, ...]]:
+    if len(cand.params) == 1:
+        us = [(u,) for u in np.linspace(0.0, 1.0, GRID_1D)]
+    elif len(cand.params) == 2:
+        us = [(a, b) for a in np.linspace(0.0, 1.0, GRID_2D[0])
+              for b in np.linspace(0.0, 1.0, GRID_2D[1])]
+    else:
+        raise ValueError(f"{cand.key}: at most 2 parameters are supported")
+    return [_point(cand, u) for u in us]
+
+
+def _point(cand: Candidate, u: Sequence[float]) -> tuple[float, ...]:
+    return tuple(float(f"{p.from_unit(x):.6g}") for p, x in zip(cand.params, u, strict=True))
+
+
+def _unit(cand: Candidate, point: tuple[float, ...]) -> np.ndarray:
+    return np.array([p.to_unit(v) for p, v in zip(cand.params, point, strict=True)])
+
+
+def _parabola_min(u: np.ndarray, c: np.ndarray) -> float:
+    """Minimum of the parabola through the best point and its neighbours (1-D grid)."""
+    i = int(np.argmin(c))
+    if i == 0 or i == len(u) - 1:
+        return float(u[i])
+    x0, x1, x2 = u[i - 1], u[i], u[i + 1]
+    y0, y1, y2 = c[i - 1], c[i], c[i + 1]
+    den = (x0 - x1) * (x0 - x2) * (x1 - x2)
+    a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
+    b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / den
+    if a <= 0:
+        return float(x1)
+    return float(min(max(-b / (2 * a), x0), x2))
+
+
+def _interval(cand: Candidate, pts: list[tuple[float, ...]], rss: np.ndarray, n: int
+              ) -> dict[str, tuple[float, float]]:
+    """95 % profile interval per parameter from the evaluated points."""
+    k = len(cand.params)
+    best = float(rss.min())
+    s2 = best / max(n - k, 1)
+    limit = best + 3.84 * s2
+    out: dict[str, tuple[float, float]] = {}
+    for j, p in enumerate(cand.params):
+        vals = np.array([pt[j] for pt in pts])
+        uniq = np.unique(vals)
+        prof = np.array([rss[vals == v].min() for v in uniq])
+        inside = uniq[prof <= limit]
+        lo, hi = float(inside.min()), float(inside.max())
+        # widen to the neighbouring evaluated values outside: the interval lies between them
+        below = uniq[uniq < lo]
+        above = uniq[uniq > hi]
+        lo = float(below.max()) if below.size else p.lo
+        hi = float(above.min()) if above.size else p.hi
+        out[p.name] = (lo, hi)
+    return out
+
+
+def _aicc(n: int, mse: float, k: int) -> float:
+    mse = max(mse, 1e-12)
+    pen = 2 * k + (2 * k * (k + 1) / (n - k - 1) if n - k - 1 > 0 else math.inf)
+    return n * math.log(mse) + pen
+
+
+def _fit_candidate(ev: _Evaluator, cand: Candidate | None, folds, eids: list[str],
+                   progress: Callable[[str], None]) -> CandidateFit:
+    t0 = time.perf_counter()
+    ev.evaluate(None, [()], eids)
+    n = sum(len(ev.keys[e]) for e in eids)
+    if cand is None:
+        base = ev.evaluate(None, [()], eids)
+        rss = float(sum(np.sum(base[((), e)].z ** 2) for e in eids))
+        points: list[tuple[float, ...]] = [()]
+        best: tuple[float, ...] = ()
+        interval: dict[str, tuple[float, float]] = {}
+    else:
+        grid = _grid(cand)
+        table = ev.evaluate(cand, grid, eids)
+        per_event = {e: np.array([np.sum(table[(p, e)].z ** 2) for p in grid]) for e in eids}
+        total = sum(per_event.values())
+        i = int(np.argmin(total))
+        u0 = _unit(cand, grid[i])
+
+        def cost(u: np.ndarray) -> float:
+            return ev.rss(cand, _point(cand, np.clip(u, 0, 1)), eids)
+
+        if len(cand.params) == 1:
+            du = 1.0 / (GRID_1D - 1)
+            lo, hi = max(0.0, u0[0] - du), min(1.0, u0[0] + du)
+            r = optimize.minimize_scalar(lambda x: cost(np.array([x])), bounds=(lo, hi),
+                                         method="bounded",
+                                         options={"xatol": du / 40, "maxiter": 10})
+            cands = [(float(r.fun), _point(cand, [r.x])), (float(total[i]), grid[i])]
+        else:
+            step = np.array([1.0 / (GRID_2D[0] - 1), 1.0 / (GRID_2D[1] - 1)])
+            simplex = np.array([u0, u0 + [step[0] / 2, 0], u0 + [0, step[1] / 2]])
+            simplex = np.clip(simplex, 0, 1)
+            r = optimize.minimize(cost, u0, method="Nelder-Mead",
+                                  options={"initial_simplex": simplex, "maxfev": 24,
+                                           "xatol": 1e-3, "fatol": 1e-3})
+            cands = [(float(r.fun), _point(cand, np.clip(r.x, 0, 1))),
+                     (float(total[i]), grid[i])]
+        rss, best = min(cands)
+        # every point evaluated on all events, for the profile interval
+        points = [p for (kk, p, e) in ev._cache if kk == cand.key and e == eids[0]]
+        points = [p for p in dict.fromkeys(points)
+                  if all((cand.key, p, e) in ev._cache for e in eids)]
+        prss = np.array([ev.rss(cand, p, eids) for p in points])
+        interval = _interval(cand, points, prss, n)
+    # held-out
+    held: dict[str, dict[str, float]] = {}
+    held_sim: dict[str, dict[str, float]] = {}
+    fold_values: dict[str, dict[str, float]] = {}
+    sq_lofo: list[np.ndarray] = []
+    sq_block: list[np.ndarray] = []
+    for name, train, test in folds:
+        if cand is None:
+            pt: tuple[float, ...] = ()
+        else:
+            # choose among the points evaluated on all events (the grid and the full fit's
+            # refinement) by the training events' cost alone
+            table = ev.evaluate(cand, points, eids)
+            tc = np.array([sum(np.sum(table[(p, e)].z ** 2) for e in train) for p in points])
+            if len(cand.params) == 1:
+                us = np.array([_unit(cand, p)[0] for p in points])
+                o = np.argsort(us)
+                pt = _point(cand, [_parabola_min(us[o], tc[o])])
+            else:
+                pt = points[int(np.argmin(tc))]
+            fold_values[name] = dict(zip((p.name for p in cand.params), pt, strict=True))
+        res = ev.evaluate(cand, [pt], test)
+        for e in test:
+            z = res[(pt, e)].z
+            (sq_block if name.startswith("block") else sq_lofo).append(z ** 2)
+            if not name.startswith("block"):
+                held[e] = dict(zip(ev.keys[e], map(float, z), strict=True))
+                held_sim[e] = dict(zip(ev.keys[e], map(float, res[(pt, e)].sim), strict=True))
+    all_sq = np.concatenate(sq_lofo + sq_block)
+    mse = float(all_sq.mean())
+    k = len(cand.params) if cand is not None else 0
+    n_h = int(all_sq.size)
+    fit = CandidateFit(
+        key=cand.key if cand is not None else "none",
+        id=cand.id if cand is not None else "none",
+        k=k,
+        values=dict(zip((p.name for p in cand.params), best, strict=True)) if cand else {},
+        parameters=cand.public_parameters(dict(zip((p.name for p in cand.params), best,
+                                                   strict=True))) if cand else {},
+        interval=interval, rss=rss, n=n, aicc_train=_aicc(n, rss / n, k),
+        heldout_rms=math.sqrt(mse),
+        heldout_rms_lofo=math.sqrt(float(np.concatenate(sq_lofo).mean())),
+        heldout_rms_block=math.sqrt(float(np.concatenate(sq_block).mean())),
+        score=_aicc(n_h, mse, k), heldout=held, heldout_sim=held_sim, fold_values=fold_values,
+    )
+    progress(f"{fit.key}: held-out RMS {fit.heldout_rms:.3f}, score {fit.score:.1f} "
+             f"({time.perf_counter() - t0:.1f} s)")
+    return fit
+
+
+def _fit_task(camp: Campaign, preset: Preset, overrides: dict[str, float], cycles: float,
+              analyse_cycles: float, phases: int, key: str, folds, eids: list[str]
+              ) -> CandidateFit:
+    """One candidate's fit in its own process (the feature code holds the GIL)."""
+    ev = _Evaluator(camp, preset, overrides, cycles, analyse_cycles, phases, 1)
+    try:
+        fit = _fit_candidate(ev, CANDIDATES[key], folds, eids, lambda _m: None)
+        fit.n_evals = ev.n_evals
+        return fit
+    finally:
+        ev.close()
+
+
+def _fit_all(camp, preset, overrides, cycles, analyse_cycles, phases, keys, folds, eids,
+             ev: _Evaluator, say: Callable[[str], None]) -> list[CandidateFit]:
+    """Fit every candidate: in worker processes when there are several workers."""
+    if ev.workers <= 1 or len(keys) <= 1:
+        fits = []
+        for k in keys:
+            n0 = ev.n_evals
+            f = _fit_candidate(ev, CANDIDATES[k], folds, eids, say)
+            f.n_evals = ev.n_evals - n0
+            fits.append(f)
+        return fits
+    # model-side candidates first: they take longest
+    order = sorted(keys, key=lambda k: CANDIDATES[k].side != "model")
+    # fork: the workers inherit the imported modules and need no importable __main__ (a
+    # user's script without a main guard works); the parent's threads are idle here
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    with ProcessPoolExecutor(max_workers=min(ev.workers, len(keys)), mp_context=ctx) as pool:
+        futures = {k: pool.submit(_fit_task, camp, preset, overrides, cycles, analyse_cycles,
+                                  phases, k, folds, eids) for k in order}
+        out: dict[str, CandidateFit] = {}
+        for fut in as_completed(futures.values()):
+            f = fut.result()
+            out[f.key] = f
+            ev.n_evals += f.n_evals
+            say(f"{f.key}: held-out RMS {f.heldout_rms:.3f}, score {f.score:.1f}")
+    return [out[k] for k in keys]
+
+
+# ------------------------------------------------------------------------------------- public
+
+def diagnose(
+    campaign: str | os.PathLike[str] | Campaign,
+    *,
+    candidates: Sequence[str] | None = None,
+    preset: Preset | None = None,
+    overrides: Mapping[str, float] | None = None,
+    cycles: float = 300,
+    analyse_cycles: float = 200,
+    phases: int = 4,
+    min_delta: float = 10.0,
+    min_reduction: float = 0.3,
+    block_fraction: float = 0.3,
+    workers: int | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Diagnosis:
+    """Locate the mismatch, fit every candidate, rank on held-out events and choose.
+
+    Parameters
+    ----------
+    campaign
+        A campaign folder or TOML file, a :class:`Campaign`, or ``"thesis:7in-cde"`` etc.
+    candidates
+        Candidate ids or keys (default: all of :data:`vadsim.candidates.CANDIDATES`).
+    preset, overrides
+        The base model (default: the campaign's tool and bit) and changes to it.
+    cycles, analyse_cycles
+        Run length and analysed window (excitation cycles); campaigns with recorded time
+        series are compared over the same number of windows the recording has.
+    phases
+        Sampling phases the simulated features are averaged over.
+    min_delta, min_reduction
+        A candidate is chosen only if its held-out AICc is ``min_delta`` below the base
+        model's and its held-out RMS is ``min_reduction`` (fraction) below the base model's.
+    block_fraction
+        Fraction of the distinct flows (highest first) held out as one block.
+    workers
+        Threads (default: all cores).
+    progress
+        Called with one line per finished step (default: silent).
+
+    Returns
+    -------
+    Diagnosis
+    """
+    t0 = time.perf_counter()
+    say = progress or (lambda _msg: None)
+    camp = load_any_campaign(campaign)
+    if not (min_delta >= 0 and math.isfinite(min_delta)):
+        raise ValueError(f"min_delta = {min_delta!r} must be a finite number >= 0")
+    if not (0.0 <= min_reduction < 1.0):
+        raise ValueError(f"min_reduction = {min_reduction!r} must be in [0, 1)")
+    if not (0.0 < block_fraction < 1.0):
+        raise ValueError(f"block_fraction = {block_fraction!r} must be in (0, 1)")
+    if not (isinstance(phases, int) and phases >= 1):
+        raise ValueError(f"phases = {phases!r} must be an integer >= 1")
+    keys = keys_for(list(candidates) if candidates is not None else None)
+    preset = preset or campaign_preset(camp)
+    folds = make_folds(camp, block_fraction)
+    ev = _Evaluator(camp, preset, overrides or {}, cycles, analyse_cycles, phases,
+                    workers or os.cpu_count() or 1)
+    try:
+        eids = [e.id for e in camp.events]
+        base = _fit_candidate(ev, None, folds, eids, say)
+        base_eval = ev.evaluate(None, [()], eids)
+        residuals = pd.DataFrame({e: dict(zip(ev.keys[e], base_eval[((), e)].z, strict=True))
+                                  for e in eids}).T.reindex(eids)
+        flows = {e.id: e.flow_gpm for e in camp.events}
+        located = locate(residuals, flows)
+        located_events = []
+        for e in eids:
+            z = base_eval[((), e)].z
+            rms = float(np.sqrt(np.mean(z ** 2)))
+            if rms > 2.0:
+                worst = np.argsort(-np.abs(z))[:3]
+                located_events.append({"event": e, "flow_gpm": flows[e], "rms_z": rms,
+                                       "worst": {ev.keys[e][j]: float(z[j]) for j in worst}})
+        say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
+        fits = _fit_all(camp, preset, dict(overrides or {}), cycles, analyse_cycles, phases,
+                        keys, folds, eids, ev, say)
+        ranking = sorted(fits, key=lambda f: f.score)
+        best = ranking[0] if ranking else None
+        chosen = None
+        if (best is not None and best.score <= base.score - min_delta
+                and best.heldout_rms <= (1.0 - min_reduction) * base.heldout_rms):
+            chosen = best
+        baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[((), e)].sim),
+                                    strict=True)) for e in eids}
+        return Diagnosis(
+            campaign=camp, preset=preset, located=located, located_events=located_events,
+            baseline=base, ranking=ranking, chosen=chosen, recorded=ev.recorded,
+            keys=dict(ev.keys), baseline_sim=baseline_sim, folds=folds,
+            settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, phases=phases,
+                          min_delta=min_delta, min_reduction=min_reduction,
+                          block_fraction=block_fraction, candidates=keys,
+                          overrides=dict(overrides or {})),
+            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals,
+        )
+    finally:
+        ev.close()
+
+
+def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
+            preset: Preset | None = None, workers: int | None = None) -> dict[str, Any]:
+    """Predict another campaign with the base model and with the diagnosis' chosen physics
+    (fitted values, nothing refitted), e.g. the 7in RC test from a fit on the CDE test.
+
+    Returns a JSON-ready dict (also stored as ``diag.prediction``): RMS standardised
+    residual before/after and per event.
+    """
+    camp = load_any_campaign(campaign)
+    preset = preset or campaign_preset(camp)
+    s = diag.settings
+    ev = _Evaluator(camp, preset, s["overrides"], s["cycles"], s["analyse_cycles"],
+                    s["phases"], workers or os.cpu_count() or 1)
+    try:
+        eids = [e.id for e in camp.events]
+        base = ev.evaluate(None, [()], eids)
+        zb = np.concatenate([base[((), e)].z for e in eids])
+        out: dict[str, Any] = {"campaign": camp.name, "physics": diag.missing_physics,
+                               "error_before": float(np.sqrt(np.mean(zb ** 2)))}
+        per_event = {e: {"flow_gpm": ev.events[e].flow_gpm,
+                         "rms_before": float(np.sqrt(np.mean(base[((), e)].z ** 2)))}
+                     for e in eids}
+        if diag.chosen is not None:
+            cand = CANDIDATES[diag.chosen.key]
+            pt = tuple(diag.chosen.values[p.name] for p in cand.params)
+            after = ev.evaluate(cand, [pt], eids)
+            za = np.concatenate([after[(pt, e)].z for e in eids])
+            out["error_after"] = float(np.sqrt(np.mean(za ** 2)))
+            for e in eids:
+                per_event[e]["rms_after"] = float(np.sqrt(np.mean(after[(pt, e)].z ** 2)))
+        else:
+            out["error_after"] = out["error_before"]
+        out["events"] = per_event
+        diag.prediction = _jsonable(out)
+        return diag.prediction
+    finally:
+        ev.close()
+
+
+# ------------------------------------------------------------------------------------ report
+
+def _feature_figures(diag: Diagnosis, folder: Path, n_features: int = 6) -> list[str]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    eids = [e.id for e in diag.campaign.events]
+    flows = np.array([e.flow_gpm for e in diag.campaign.events])
+    order = np.argsort(flows)
+    # features with the largest held-out error of the base model
+    err: dict[str, float] = {}
+    for e in eids:
+        for k, z in diag.baseline.heldout.get(e, {}).items():
+            err[k] = err.get(k, 0.0) + z * z
+    top = sorted(err, key=lambda k: -err[k])[:n_features]
+    if not top:
+        return []
+    ncol = min(3, len(top))
+    nrow = math.ceil(len(top) / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
+    after = diag.chosen
+    for ax, key in zip(axes.flat, top, strict=False):
+        rec = np.array([diag.recorded[e].get(key, Feature(math.nan, math.nan, 0)).value
+                        for e in eids])
+        spr = np.array([diag.recorded[e].get(key, Feature(math.nan, math.nan, 0)).spread
+                        for e in eids])
+        before = np.array([diag.baseline.heldout_sim.get(e, {}).get(key, math.nan)
+                           for e in eids])
+        ax.errorbar(flows[order], rec[order], yerr=spr[order], fmt="s", color="black",
+                    capsize=3, label="recorded")
+        ax.plot(flows[order], before[order], "o--", color="tab:red", label="base model")
+        if after is not None:
+            aft = np.array([after.heldout_sim.get(e, {}).get(key, math.nan) for e in eids])
+            ax.plot(flows[order], aft[order], "^-", color="tab:blue",
+                    label=f"+ {after.key} (held out)")
+        ax.set_title(key, fontsize=9)
+        ax.set_xlabel("flow (gal/min)")
+    for ax in list(axes.flat)[len(top):]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=7)
+    fig.suptitle("Held-out predictions (leave one flow out), features with the largest "
+                 "base-model error", fontsize=10)
+    fig.tight_layout()
+    path = folder / "heldout_features.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path.name]
+
+
+def _heatmap(diag: Diagnosis, folder: Path) -> list[str]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from vadsim.plots import mismatch_heatmap
+
+    eids = [e.id for e in diag.campaign.events]
+    table = pd.DataFrame({e: diag.baseline.heldout.get(e, {}) for e in eids}).T.reindex(eids)
+    table.index = [f"{e} ({diag.campaign.events[i].flow_gpm:g})" for i, e in enumerate(eids)]
+    fig = mismatch_heatmap(table, title="Base model: (model - recorded) / spread")
+    path = folder / "mismatch_base.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path.name]
+
+
+def write_diagnosis_report(diag: Diagnosis, folder: str | os.PathLike[str],
+                           fmt: str = "md") -> Path:
+    """Write ``diagnosis.md`` (or ``.html``), ``diagnosis.json`` and figures into ``folder``."""
+    if fmt not in ("md", "html"):
+        raise ValueError(f"fmt = {fmt!r} must be 'md' or 'html'")
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    figs = _heatmap(diag, out) + _feature_figures(diag, out)
+    js = diag.as_json()
+    (out / "diagnosis.json").write_text(json.dumps(js, indent=2))
+    b = diag.baseline
+    lines = [f"# Diagnosis of {diag.campaign.name}", "",
+             f"Base model: preset `{diag.preset.name}`"
+             + (f" with {diag.settings['overrides']}" if diag.settings["overrides"] else "")
+             + f"; {len(diag.campaign.events)} events; {diag.n_evals} evaluations in "
+             f"{diag.elapsed_s:.0f} s.", "",
+             "## Where the model and the recordings disagree", ""]
+    if diag.located:
+        lines += [f"- {m.describe()}" for m in diag.located]
+    else:
+        lines.append("- No feature is offset or trends with flow beyond the threshold "
+                     "(95 % intervals and a minimum effect of 1.5 spreads).")
+    for le in diag.located_events:
+        worst = ", ".join(f"{k} {v:+.1f}" for k, v in le["worst"].items())
+        lines.append(f"- Event {le['event']} ({le['flow_gpm']:g} gal/min): RMS z "
+                     f"{le['rms_z']:.1f} ({worst})")
+    lines += ["", "## Candidates, ranked on held-out events", "",
+              "Held-out RMS: standardised residuals of events left out of the fit "
+              "(leave-one-flow-out and a high-flow block), pooled. Score: AICc on those "
+              "held-out residuals (lower is better). Thresholds: score "
+              f"{diag.settings['min_delta']:g} below `none` and held-out RMS "
+              f"{100 * diag.settings['min_reduction']:.0f} % "
+              "below `none`.", "",
+              "| candidate | k | parameters | held-out RMS (LOFO / block) | score "
+              "| delta vs none |",
+              "|---|---|---|---|---|---|"]
+    for f in [b, *diag.ranking]:
+        par = ", ".join(f"{k} = {_fmt(v)}" for k, v in f.parameters.items()) or "-"
+        lines.append(f"| {f.key} | {f.k} | {par} | {f.heldout_rms:.3f} "
+                     f"({f.heldout_rms_lofo:.3f} / {f.heldout_rms_block:.3f}) | "
+                     f"{f.score:.1f} | {f.score - b.score:+.1f} |")
+    lines += ["", "## Verdict", ""]
+    if diag.chosen is None:
+        lines.append("**Missing physics: none.** No candidate improves the held-out "
+                     "prediction enough to be worth its parameters.")
+    else:
+        c = diag.chosen
+        cand = CANDIDATES[c.key]
+        lines.append(f"**Missing physics: `{c.id}`** — {cand.signature}")
+        lines.append("")
+        for p in cand.params:
+            lo, hi = c.interval.get(p.name, (math.nan, math.nan))
+            lines.append(f"- {p.name} = {_fmt(c.values[p.name])} {p.unit} "
+                         f"(95 % profile interval {_fmt(lo)} to {_fmt(hi)})")
+        for k, v in cand.fixed.items():
+            lines.append(f"- {k} = {v}")
+        lines.append(f"- held-out RMS {b.heldout_rms:.3f} -> {c.heldout_rms:.3f} "
+                     f"({100 * (1 - c.heldout_rms / b.heldout_rms):.0f} % lower)")
+    if diag.prediction:
+        p = diag.prediction
+        lines += ["", f"## Prediction of {p['campaign']} (nothing refitted)", "",
+                  f"RMS standardised residual: base {p['error_before']:.3f}, with "
+                  f"`{p['physics']}` {p['error_after']:.3f}.", "",
+                  "| event | flow | RMS base | RMS with physics |", "|---|---|---|---|"]
+        for e, row in p["events"].items():
+            lines.append(f"| {e} | {row['flow_gpm']:g} | {row['rms_before']:.2f} | "
+                         f"{row.get('rms_after', row['rms_before']):.2f} |")
+    lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figs]
+    lines += ["", "Machine-readable: `diagnosis.json`."]
+    md = "\n".join(lines) + "\n"
+    if fmt == "md":
+        path = out / "diagnosis.md"
+        path.write_text(md)
+        return path
+    from vadsim.validate import _md_to_html
+    path = out / "diagnosis.html"
+    path.write_text(_md_to_html(md, f"Diagnosis of {diag.campaign.name}"))
+    return path

@@ -1,0 +1,167 @@
+"""Missing-physics diagnosis: candidate library, measurement filters, folds, and small
+campaigns where the answer is known (a concealed hydraulic force is found; a campaign the
+base model wrote gives "none")."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from vadsim.blind import score
+from vadsim.candidates import (
+    CANDIDATES,
+    candidate,
+    candidate_ids,
+    keys_for,
+    lateral_coupling,
+    mount_resonance,
+)
+from vadsim.cli import main
+from vadsim.diagnose import diagnose, make_folds
+from vadsim.recordings import save_campaign
+from vadsim.synthetic import synthetic_campaign
+
+FS = 20480.0
+FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
+SMALL = dict(cycles=160, analyse_cycles=100, duration_s=3.0, noise_g=0.3)
+
+
+def _sine_gain(filt, name: str, f_hz: float) -> float:
+    t = np.arange(int(2.0 * FS)) / FS
+    a = np.sin(2 * np.pi * f_hz * t)
+    y = filt(name, a, FS)
+    tail = slice(len(t) // 2, None)  # after the transient
+    return float(np.std(y[tail]) / np.std(a[tail]))
+
+
+def test_library_has_every_required_candidate_with_bounds_and_signature():
+    assert candidate_ids() == ["hydraulic_force", "contact_law", "anvil_friction",
+                               "string_radiation", "axial_lateral", "sensor_chain"]
+    for c in CANDIDATES.values():
+        assert c.signature and c.params
+        for p in c.params:
+            assert p.lo < p.hi
+            for x in (p.lo, 0.5 * (p.lo + p.hi), p.hi):  # unit mapping round-trips
+                assert p.from_unit(p.to_unit(x)) == pytest.approx(x, rel=1e-12, abs=1e-15)
+    assert keys_for(["hydraulic_force"]) == ["hydraulic_force[anvil]", "hydraulic_force[bit]"]
+
+
+def test_bad_candidate_values_name_the_parameter_and_bounds():
+    with pytest.raises(ValueError, match=r"anvil_friction: force = -1.*outside \[0, 400\]"):
+        CANDIDATES["anvil_friction"].change({"force": -1.0})
+    with pytest.raises(ValueError, match="missing parameter 'q'"):
+        CANDIDATES["sensor_chain"].change({"f_res_hz": 500.0})
+    with pytest.raises(ValueError, match="unknown parameter"):
+        CANDIDATES["contact_law"].change({"hc_alpha": 0.5, "n": 2})
+    with pytest.raises(ValueError, match="has variants"):
+        candidate("hydraulic_force")
+    with pytest.raises(ValueError, match="unknown candidate 'magic'"):
+        keys_for(["magic"])
+
+
+def test_mount_resonance_has_unit_static_gain_and_gain_q_at_resonance():
+    filt = mount_resonance(600.0, 8.0)
+    assert _sine_gain(filt, "x1", 20.0) == pytest.approx(1.0, abs=0.01)
+    # |H(j w0)| = q for w0^2 / (s^2 + w0 s / q + w0^2)
+    assert _sine_gain(filt, "x1", 600.0) == pytest.approx(8.0, rel=0.03)
+    assert _sine_gain(filt, "x5", 600.0) == pytest.approx(8.0, rel=0.03)  # both sensors
+
+
+def test_lateral_coupling_adds_gain_at_the_mode_and_only_at_x5():
+    filt = lateral_coupling("x5", 2.0, 150.0)
+    # unit-peak band-pass in phase with the input at its centre: 1 + gain
+    assert _sine_gain(filt, "x5", 150.0) == pytest.approx(3.0, rel=0.03)
+    assert _sine_gain(filt, "x5", 15.0) == pytest.approx(1.0, abs=0.05)
+    assert _sine_gain(filt, "x1", 150.0) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_folds_leave_each_flow_out_and_hold_out_the_top_flows():
+    camp = synthetic_campaign("7in-cde", (200.0, 300.0, 300.0, 400.0, 500.0, 600.0),
+                              cycles=40, analyse_cycles=20, noise_g=0.0)
+    folds = make_folds(camp)
+    lofo = [f for f in folds if f[0].startswith("flow")]
+    assert len(lofo) == 5  # distinct flows; both 300 gal/min events leave together
+    for _, train, test in folds:
+        assert set(train).isdisjoint(test) and len(train) + len(test) == 6
+    name, train, test = folds[-1]
+    assert name.startswith("block") and test == ["e05", "e06"]
+    with pytest.raises(ValueError, match="at least 3"):
+        make_folds(synthetic_campaign("7in-cde", (200.0, 300.0), cycles=40,
+                                      analyse_cycles=20))
+
+
+@pytest.fixture(scope="module")
+def hydraulic_campaign():
+    ch = CANDIDATES["hydraulic_force[anvil]"].change({"c": 4.0e-4})
+    return synthetic_campaign("7in-cde", FLOWS, extras=ch.extras, seed=11, **SMALL)
+
+
+def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_campaign):
+    d = diagnose(hydraulic_campaign, cycles=SMALL["cycles"],
+                 analyse_cycles=SMALL["analyse_cycles"], phases=2)
+    assert d.missing_physics == "hydraulic_force"
+    assert d.chosen.parameters["acts_on"] == "anvil"
+    assert d.chosen.values["c"] == pytest.approx(4.0e-4, rel=0.15)
+    lo, hi = d.chosen.interval["c"]
+    assert lo <= d.chosen.values["c"] <= hi
+    assert d.chosen.heldout_rms <= 0.5 * d.baseline.heldout_rms
+    # concealed: the effect grows with flow, so the lowest flows are nearly untouched
+    low = d.baseline.heldout["e01"]
+    assert math.sqrt(np.mean(np.square(list(low.values())))) < 1.0
+    assert any(m.kind != "offset" for m in d.located)  # located as a trend with flow
+
+
+def test_campaign_written_by_the_base_model_gives_none():
+    camp = synthetic_campaign("7in-cde", FLOWS, seed=12, **SMALL)
+    d = diagnose(camp, cycles=SMALL["cycles"], analyse_cycles=SMALL["analyse_cycles"],
+                 phases=2)
+    assert d.missing_physics == "none", d.summary()
+    assert d.located == []
+    js = d.as_json()
+    assert js["heldout_error_after"] == js["heldout_error_before"]
+
+
+def test_cli_json_has_the_promised_keys(tmp_path, capsys, hydraulic_campaign):
+    folder = save_campaign(hydraulic_campaign, tmp_path / "camp")
+    rc = main(["diagnose", str(folder), "--json", "--candidates", "hydraulic_force",
+               "--cycles", str(SMALL["cycles"]), "--analyse", str(SMALL["analyse_cycles"]),
+               "--phases", "2", "--out", str(tmp_path / "report"), "--quiet"])
+    assert rc == 0
+    js = json.loads(capsys.readouterr().out)
+    for key in ("missing_physics", "parameters", "located", "heldout_error_before",
+                "heldout_error_after", "ranking"):
+        assert key in js
+    assert js["missing_physics"] == "hydraulic_force"
+    assert js["heldout_error_after"] < js["heldout_error_before"]
+    assert [r["candidate"] for r in js["ranking"]][0] == "none"
+    assert (tmp_path / "report" / "diagnosis.md").is_file()
+    assert (tmp_path / "report" / "heldout_features.png").is_file()
+
+
+def test_cli_names_a_bad_threshold(capsys):
+    assert main(["diagnose", "thesis:7in-cde", "--min-reduction", "1.5"]) == 2
+    assert "min_reduction = 1.5" in capsys.readouterr().err
+
+
+def test_blind_scores_count_identifications_false_alarms_and_gains():
+    truth = {"a": {"id": "hydraulic_force", "values": {"c": 4e-4}, "parameters": {}},
+             "b": {"id": "sensor_chain", "values": {"f_res_hz": 400.0, "q": 5.0},
+                   "parameters": {}},
+             "n1": {"id": "none", "values": {}, "parameters": {}},
+             "n2": {"id": "none", "values": {}, "parameters": {}}}
+    res = {"a": {"missing_physics": "hydraulic_force", "parameters": {"c": 5e-4},
+                 "heldout_error_before": 4.0, "heldout_error_after": 1.0},
+           "b": {"missing_physics": "none", "parameters": {},
+                 "heldout_error_before": 2.0, "heldout_error_after": 2.0},
+           "n1": {"missing_physics": "none", "parameters": {},
+                  "heldout_error_before": 0.3, "heldout_error_after": 0.3},
+           "n2": {"missing_physics": "contact_law", "parameters": {"hc_alpha": 1.0},
+                  "heldout_error_before": 0.3, "heldout_error_after": 0.2}}
+    sc = score(res, truth)
+    assert sc["identification_rate"] == 0.5
+    assert sc["identification_by_candidate"] == {"hydraulic_force": 1.0, "sensor_chain": 0.0}
+    assert sc["false_alarms"] == 1 and sc["null_campaigns"] == 2
+    assert sc["parameter_error_median"]["hydraulic_force.c"] == pytest.approx(0.25)
+    assert sc["heldout_improvement_min"] == pytest.approx(0.75)
