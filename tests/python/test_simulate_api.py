@@ -476,7 +476,8 @@ def test_contact_laws_run(law, r200):
 # Presets
 # --------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name,flow", [("7in-cde", 200), ("7in-rc", 200), ("9.5in-pdc", 560)])
+@pytest.mark.parametrize("name,flow", [("7in-cde", 200), ("7in-rc", 200), ("9.5in-pdc", 560),
+                                       ("7in-cde-cal", 200), ("7in-rc-cal", 200)])
 def test_every_preset_runs(name, flow):
     r = vadsim.simulate(name, flow, **SHORT)
     assert r.preset == name
@@ -487,7 +488,11 @@ def test_every_preset_runs(name, flow):
 
 
 def test_preset_lookup_and_rc_differs_only_in_m1():
-    assert vadsim.preset_names() == ["7in-cde", "7in-rc", "9.5in-pdc"]
+    assert vadsim.preset_names() == ["7in-cde", "7in-rc", "9.5in-pdc", "7in-cde-cal",
+                                     "7in-rc-cal"]
+    cal = vadsim.PRESETS["7in-cde-cal"].params  # the calibrated pair differs only in l0, wob
+    assert {k for k in cal if cal[k] != vadsim.PRESETS["7in-cde"].params[k]} == {"l0", "wob"}
+    assert vadsim.PRESETS["7in-rc-cal"].params["m1"] == 1.29
     cde, rc = vadsim.PRESETS["7in-cde"].params, vadsim.PRESETS["7in-rc"].params
     assert set(cde) == set(rc)
     diff = {k: (cde[k], rc[k]) for k in cde if cde[k] != rc[k]}
