@@ -280,6 +280,10 @@ class Diagnosis:
             p = self.prediction
             lines.append(f"prediction of {p['campaign']}: RMS {p['error_before']:.2f} -> "
                          f"{p['error_after']:.2f}")
+            if "best_ranked" in p:
+                b = p["best_ranked"]
+                lines.append(f"  (the best-ranked candidate, {b['key']}, not chosen, would give "
+                             f"{b['error']:.2f})")
         return "\n".join(lines)
 
 
@@ -661,6 +665,18 @@ def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
                 per_event[e]["rms_after"] = float(np.sqrt(np.mean(after[(pt, e)].z ** 2)))
         else:
             out["error_after"] = out["error_before"]
+        if diag.ranking and diag.ranking[0] is not diag.chosen:
+            # what the best-ranked candidate would predict even though it was not chosen:
+            # evidence for the next campaign, not a verdict
+            top = diag.ranking[0]
+            cand = CANDIDATES[top.key]
+            pt = tuple(top.values[p.name] for p in cand.params)
+            res = ev.evaluate(cand, [pt], eids)
+            zt = np.concatenate([res[(pt, e)].z for e in eids])
+            out["best_ranked"] = {"key": top.key, "parameters": top.parameters,
+                                  "error": float(np.sqrt(np.mean(zt ** 2)))}
+            for e in eids:
+                per_event[e]["rms_best_ranked"] = float(np.sqrt(np.mean(res[(pt, e)].z ** 2)))
         out["events"] = per_event
         diag.prediction = _jsonable(out)
         return diag.prediction
@@ -802,6 +818,11 @@ def write_diagnosis_report(diag: Diagnosis, folder: str | os.PathLike[str],
         for e, row in p["events"].items():
             lines.append(f"| {e} | {row['flow_gpm']:g} | {row['rms_before']:.2f} | "
                          f"{row.get('rms_after', row['rms_before']):.2f} |")
+        if "best_ranked" in p:
+            b = p["best_ranked"]
+            par = ", ".join(f"{k} = {_fmt(v)}" for k, v in b["parameters"].items())
+            lines += ["", f"The best-ranked candidate, `{b['key']}` ({par}), was not chosen; "
+                      f"it would predict with RMS {b['error']:.3f} (evidence, not a verdict)."]
     lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figs]
     lines += ["", "Machine-readable: `diagnosis.json`."]
     md = "\n".join(lines) + "\n"

@@ -19,7 +19,7 @@ from vadsim.candidates import (
     mount_resonance,
 )
 from vadsim.cli import main
-from vadsim.diagnose import diagnose, make_folds
+from vadsim.diagnose import diagnose, make_folds, predict
 from vadsim.recordings import save_campaign
 from vadsim.synthetic import synthetic_campaign
 
@@ -98,9 +98,14 @@ def hydraulic_campaign():
     return synthetic_campaign("7in-cde", FLOWS, extras=ch.extras, seed=11, **SMALL)
 
 
-def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_campaign):
-    d = diagnose(hydraulic_campaign, cycles=SMALL["cycles"],
-                 analyse_cycles=SMALL["analyse_cycles"], phases=2)
+@pytest.fixture(scope="module")
+def hydraulic_diagnosis(hydraulic_campaign):
+    return diagnose(hydraulic_campaign, cycles=SMALL["cycles"],
+                    analyse_cycles=SMALL["analyse_cycles"], phases=2)
+
+
+def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_diagnosis):
+    d = hydraulic_diagnosis
     assert d.missing_physics == "hydraulic_force"
     assert d.chosen.parameters["acts_on"] == "anvil"
     assert d.chosen.values["c"] == pytest.approx(4.0e-4, rel=0.15)
@@ -111,6 +116,17 @@ def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_campaign):
     low = d.baseline.heldout["e01"]
     assert math.sqrt(np.mean(np.square(list(low.values())))) < 1.0
     assert any(m.kind != "offset" for m in d.located)  # located as a trend with flow
+
+
+def test_fitted_physics_predicts_another_campaign_without_refitting(hydraulic_diagnosis):
+    ch = CANDIDATES["hydraulic_force[anvil]"].change({"c": 4.0e-4})
+    other = synthetic_campaign("7in-cde", (450.0, 550.0, 620.0), extras=ch.extras, seed=13,
+                               **SMALL)
+    p = predict(hydraulic_diagnosis, other)
+    assert p["physics"] == "hydraulic_force"
+    assert p["error_after"] < 0.5 * p["error_before"]
+    assert set(p["events"]) == {"e01", "e02", "e03"}
+    assert hydraulic_diagnosis.as_json()["prediction"]["error_after"] == p["error_after"]
 
 
 def test_campaign_written_by_the_base_model_gives_none():
