@@ -62,7 +62,9 @@ class ParamSpec:
 
     ``scale`` is how the search spaces it ("linear" from ``lo``; "log" for parameters whose
     effect spans decades); ``null`` is the value at which the physics vanishes (None when
-    no value of it gives the base model).
+    no value of it gives the base model); ``grid`` is the number of grid points of the
+    diagnosis' global stage along it (fine for a resonance frequency, whose cost has minima
+    as narrow as the resonance).
     """
 
     name: str
@@ -71,6 +73,7 @@ class ParamSpec:
     unit: str
     scale: str = "linear"
     null: float | None = None
+    grid: int = 11
 
     def to_unit(self, x: float) -> float:
         """Parameter value -> position in [0, 1] of the search box."""
@@ -243,8 +246,8 @@ def _radiation() -> Candidate:
 def _axial_lateral() -> Candidate:
     return Candidate(
         id="axial_lateral", variant="",
-        params=(ParamSpec("gain", 0.0, 6.0, "-", "linear", 0.0),
-                ParamSpec("f_lat_hz", 25.0, 480.0, "Hz", "log", None)),
+        params=(ParamSpec("gain", 0.0, 6.0, "-", "linear", 0.0, grid=4),
+                ParamSpec("f_lat_hz", 25.0, 480.0, "Hz", "log", None, grid=40)),
         side="measurement",
         signature=("A lateral mode at f_lat seen by the sensor above the motor (x5) only: "
                    "x5 band levels and peaks change where harmonics of the excitation meet "
@@ -257,8 +260,8 @@ def _axial_lateral() -> Candidate:
 def _sensor_chain() -> Candidate:
     return Candidate(
         id="sensor_chain", variant="",
-        params=(ParamSpec("f_res_hz", 150.0, 2000.0, "Hz", "log", None),
-                ParamSpec("q", 1.0, 30.0, "-", "log", None)),
+        params=(ParamSpec("f_res_hz", 150.0, 2000.0, "Hz", "log", None, grid=24),
+                ParamSpec("q", 1.0, 30.0, "-", "log", None, grid=4)),
         side="measurement",
         signature=("The accelerometers' mount resonance (unit static gain, quality q): "
                    "both sensors' impact peaks and upper bands change alike."),

@@ -8,8 +8,9 @@ misses ("hydraulics at high flow"). A diagnosis here does it with numbers:
    :func:`vadsim.locate.locate` says which features of which sensor are offset or trend with
    flow; events whose RMS residual exceeds 2 are listed too.
 2. **Fit.** Every candidate of :mod:`vadsim.candidates` is fitted by least squares on the
-   standardised residuals of all events: a grid over its parameter box (11 points in 1-D,
-   8 x 4 in 2-D) and a local refinement (bounded Brent in 1-D, Nelder-Mead in 2-D). A 95 %
+   standardised residuals of all events: a grid over its parameter box (11 points per
+   parameter; 40 and 24 along a resonance frequency, whose cost minima are as narrow as the
+   resonance) and a local refinement (bounded Brent in 1-D, Nelder-Mead in 2-D). A 95 %
    interval comes from the cost profile: ``RSS <= RSS_min + 3.84 s^2`` with
    ``s^2 = RSS_min / (n - k)``.
 3. **Score on held-out events.** Leave-one-flow-out folds and a block that holds out the
@@ -66,8 +67,6 @@ __all__ = ["CandidateFit", "Diagnosis", "diagnose", "predict", "write_diagnosis_
 FAILED_RESIDUAL = 10.0
 """Residual of every feature of an event whose run fails or loses a compared feature."""
 
-GRID_1D = 11
-GRID_2D = (8, 4)
 
 
 # ------------------------------------------------------------------------------ evaluation
@@ -332,13 +331,11 @@ def make_folds(campaign: Campaign, block_fraction: float = 0.3
 # ------------------------------------------------------------------------------------ fitting
 
 def _grid(cand: Candidate) -> list[tuple[float, ...]]:
-    if len(cand.params) == 1:
-        us = [(u,) for u in np.linspace(0.0, 1.0, GRID_1D)]
-    elif len(cand.params) == 2:
-        us = [(a, b) for a in np.linspace(0.0, 1.0, GRID_2D[0])
-              for b in np.linspace(0.0, 1.0, GRID_2D[1])]
-    else:
+    if len(cand.params) > 2:
         raise ValueError(f"{cand.key}: at most 2 parameters are supported")
+    axes = [np.linspace(0.0, 1.0, p.grid) for p in cand.params]
+    us = [(a,) for a in axes[0]] if len(axes) == 1 else [(a, b) for a in axes[0]
+                                                          for b in axes[1]]
     return [_point(cand, u) for u in us]
 
 
@@ -417,14 +414,14 @@ def _fit_candidate(ev: _Evaluator, cand: Candidate | None, folds, eids: list[str
             return ev.rss(cand, _point(cand, np.clip(u, 0, 1)), eids)
 
         if len(cand.params) == 1:
-            du = 1.0 / (GRID_1D - 1)
+            du = 1.0 / (cand.params[0].grid - 1)
             lo, hi = max(0.0, u0[0] - du), min(1.0, u0[0] + du)
             r = optimize.minimize_scalar(lambda x: cost(np.array([x])), bounds=(lo, hi),
                                          method="bounded",
                                          options={"xatol": du / 40, "maxiter": 10})
             cands = [(float(r.fun), _point(cand, [r.x])), (float(total[i]), grid[i])]
         else:
-            step = np.array([1.0 / (GRID_2D[0] - 1), 1.0 / (GRID_2D[1] - 1)])
+            step = np.array([1.0 / (p.grid - 1) for p in cand.params])
             simplex = np.array([u0, u0 + [step[0] / 2, 0], u0 + [0, step[1] / 2]])
             simplex = np.clip(simplex, 0, 1)
             r = optimize.minimize(cost, u0, method="Nelder-Mead",
