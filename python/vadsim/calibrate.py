@@ -5,8 +5,9 @@ on bit per unit reference mass ``wob``; field recordings disagree with any model
 This module fits parameters by robust least squares on standardised residuals (features of
 the simulation vs the targets, divided by the targets' spreads): a global stage first
 (differential evolution; the landscape is rough: Z jumps at regime boundaries and ``l0``
-enters the excitation's phase ``beta (x2 - x3)``, which wraps every 0.017 in ``l0``), then a
-local robust least-squares polish, then an uncertainty estimate from the local Jacobian and a
+enters the excitation's phase ``beta (x2 - x3)``: its features repeat every half period,
+0.0083 in ``l0`` for the 7in tool), then a local robust least-squares polish, a search of
+those phase-alias stripes (a grid of the other parameters on each), then an uncertainty estimate from the local Jacobian and a
 profile of the cost around the optimum.
 
 Targets are either a campaign's recorded features (``targets="recorded"``) or, for the
@@ -40,7 +41,8 @@ from vadsim.validate import (
     simulate_event,
 )
 
-__all__ = ["CalibrationResult", "DEFAULT_BOUNDS", "calibrate", "thesis_targets"]
+__all__ = ["CalibrationResult", "DEFAULT_BOUNDS", "calibrate", "calibration_cost",
+           "thesis_targets"]
 
 DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
     "l0": (0.4, 1.4),
@@ -124,6 +126,108 @@ def _event_residuals(sim: EventSimulation, targets: Mapping[str, Feature],
     return out
 
 
+class _Objective:
+    """The standardised residuals of a campaign at given parameter values (shared by
+    :func:`calibrate` and :func:`calibration_cost`)."""
+
+    def __init__(self, camp: Campaign, preset: Preset, targets, keys, resolution: str,
+                 overrides: Mapping[str, float] | None, cycles: float, analyse_cycles: float,
+                 pool: ThreadPoolExecutor) -> None:
+        if resolution not in ("sensor", "full"):
+            raise ValueError(f"resolution = {resolution!r} must be 'sensor' or 'full'")
+        if isinstance(targets, str):
+            if targets == "recorded":
+                tgt = {ev.id: recorded_features(camp, ev, preset.params["alpha"] * ev.flow_gpm
+                                                / (2 * math.pi)) for ev in camp.events}
+            elif targets == "thesis-sim":
+                tgt = thesis_targets(camp)
+            else:
+                raise ValueError(f"targets = {targets!r} must be 'recorded', 'thesis-sim' or "
+                                 "a mapping")
+        else:
+            tgt = {k: dict(v) for k, v in targets.items()}
+        self.pairs = [(ev.id, k) for ev in camp.events for k in tgt.get(ev.id, {})
+                      if keys is None or k in keys]
+        if not self.pairs:
+            raise ValueError("no targets to fit (check keys and targets)")
+        self.camp, self.preset, self.tgt, self.resolution = camp, preset, tgt, resolution
+        self.overrides, self.cycles, self.analyse_cycles = overrides, cycles, analyse_cycles
+        self.pool = pool
+
+    def run_all(self, values: Mapping[str, float]) -> dict[str, EventSimulation | None]:
+        ov = {**(self.overrides or {}), **values}
+        camp, preset = self.camp, self.preset
+
+        def one(ev):
+            try:
+                if self.resolution == "full":
+                    return _full_resolution_event(camp, ev, preset, ov, self.cycles,
+                                                  self.analyse_cycles)
+                return simulate_event(camp, ev, preset=preset, overrides=ov, cycles=self.cycles,
+                                      analyse_cycles=self.analyse_cycles)
+            except (SolverError, ValueError):
+                return None
+
+        return dict(zip([ev.id for ev in camp.events],
+                        self.pool.map(one, camp.events), strict=True))
+
+    def residuals(self, values: Mapping[str, float]) -> np.ndarray:
+        sims = self.run_all(values)
+        per_event: dict[str, dict[str, float]] = {}
+        out = np.empty(len(self.pairs))
+        for i, (eid, key) in enumerate(self.pairs):
+            sim = sims[eid]
+            if sim is None:
+                out[i] = FAILED_RESIDUAL
+                continue
+            if eid not in per_event:
+                per_event[eid] = _event_residuals(sim, self.tgt[eid], self.resolution)
+            out[i] = per_event[eid].get(key, FAILED_RESIDUAL)
+        return out
+
+    def table(self, r: np.ndarray) -> pd.DataFrame:
+        df = pd.DataFrame(index=[ev.id for ev in self.camp.events])
+        for (eid, key), v in zip(self.pairs, r, strict=True):
+            df.loc[eid, key] = v
+        return df
+
+
+def calibration_cost(
+    campaign: str | os.PathLike[str] | Campaign,
+    values: Mapping[str, float],
+    *,
+    targets: str | Mapping[str, Mapping[str, Feature]] = "recorded",
+    keys: Sequence[str] | None = None,
+    resolution: str = "sensor",
+    overrides: Mapping[str, float] | None = None,
+    cycles: float = 400,
+    analyse_cycles: float = 200,
+    workers: int | None = None,
+    preset: Preset | None = None,
+) -> tuple[float, pd.DataFrame]:
+    """The cost :func:`calibrate` minimises, at given parameter values, without fitting.
+
+    For checking identifiability: compare the cost at the truth of a synthetic campaign with
+    the cost at a suspected alias (e.g. ``l0`` shifted by one excitation-phase period). The
+    arguments mean what they mean for :func:`calibrate`; ``values`` override the preset (on
+    top of ``overrides``).
+
+    Returns
+    -------
+    (float, pandas.DataFrame)
+        The soft-L1 cost ``sum 2 (sqrt(1 + r^2) - 1)`` of the standardised residuals, and the
+        residuals (events x feature keys; a failed run gives ``FAILED_RESIDUAL``).
+    """
+    camp = load_any_campaign(campaign)
+    preset = preset or campaign_preset(camp)
+    make_params({**preset.params, **(overrides or {}), **values})  # names checked first
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+        obj = _Objective(camp, preset, targets, keys, resolution, overrides, cycles,
+                         analyse_cycles, pool)
+        r = obj.residuals({k: float(v) for k, v in values.items()})
+    return _soft_l1(r), obj.table(r)
+
+
 @dataclass
 class CalibrationResult:
     """Estimates with uncertainty, and the fit before and after."""
@@ -178,7 +282,11 @@ def calibrate(
     global_stage: bool | str = "scan",
     n_global: int = 512,
     n_starts: int = 3,
-    alias_stripes: int = 3,
+    alias_stripes: int = 4,
+    alias_grid: int = 16,
+    alias_refine: int = 17,
+    max_alias_rounds: int = 20,
+    max_nfev: int = 40,
     popsize: int = 8,
     maxiter: int = 10,
     seed: int = 1,
@@ -217,9 +325,17 @@ def calibrate(
         ``l0``), so the scan must be dense: 512 points space ``l0`` by ~0.002 over 0.4-1.4.
         ``"de"``: differential evolution (``popsize``, ``maxiter``). False: only the local
         polish from ``start``.
-    alias_stripes
-        When fitting ``l0``: also polish from this many phase-alias stripes on each side of
-        the best fit (see the comment in the code; 0 turns it off).
+    alias_stripes, alias_grid, alias_refine
+        When fitting ``l0``: search this many phase-alias stripes on each side of the best
+        fit (half a period of the excitation phase apart: 0.0083 m for the 7in tool), on each
+        a grid of ``alias_grid`` values of the other parameter (log-spaced if its bounds span
+        4x or more; a Sobol' set for several), refined by ``alias_refine`` values around the
+        best cells of the ``n_starts`` best stripes, then polish from the ``n_starts`` best
+        distinct points (see the comment in the code; ``alias_stripes=0`` turns it off).
+        While the best stripe is at an end of those scanned, up to ``max_alias_rounds``
+        times ``alias_stripes`` more stripes are scanned beyond it.
+    max_nfev
+        Evaluations per local polish (``scipy.optimize.least_squares``).
     profile_points
         If > 0, also profile the cost along each parameter (others at the optimum).
     callback
@@ -260,62 +376,23 @@ def calibrate(
         if not (lo <= x0[n] <= hi):
             raise ValueError(f"start {n} = {x0[n]} is outside its bounds {lim[n]}")
 
-    if isinstance(targets, str):
-        if targets == "recorded":
-            tgt = {ev.id: recorded_features(camp, ev, preset.params["alpha"] * ev.flow_gpm
-                                            / (2 * math.pi)) for ev in camp.events}
-        elif targets == "thesis-sim":
-            tgt = thesis_targets(camp)
-        else:
-            raise ValueError(f"targets = {targets!r} must be 'recorded', 'thesis-sim' or a "
-                             "mapping")
-    else:
-        tgt = {k: dict(v) for k, v in targets.items()}
-    pairs = [(ev.id, k) for ev in camp.events for k in tgt.get(ev.id, {})
-             if keys is None or k in keys]
-    if not pairs:
-        raise ValueError("no targets to fit (check keys and targets)")
     evals = [0]
     history: list[dict[str, float]] = []
     pool = ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1)
-
-    def run_all(values: Mapping[str, float]) -> dict[str, EventSimulation | None]:
-        ov = {**(overrides or {}), **values}
-
-        def one(ev):
-            try:
-                if resolution == "full":
-                    return _full_resolution_event(camp, ev, preset, ov, cycles, analyse_cycles)
-                return simulate_event(camp, ev, preset=preset, overrides=ov, cycles=cycles,
-                                      analyse_cycles=analyse_cycles)
-            except (SolverError, ValueError):
-                return None
-
-        return dict(zip([ev.id for ev in camp.events],
-                        pool.map(one, camp.events), strict=True))
+    try:
+        obj = _Objective(camp, preset, targets, keys, resolution, overrides, cycles,
+                         analyse_cycles, pool)
+    except ValueError:
+        pool.shutdown(wait=True)
+        raise
 
     def residuals(values: Mapping[str, float]) -> np.ndarray:
-        sims = run_all(values)
-        per_event: dict[str, dict[str, float]] = {}
-        out = np.empty(len(pairs))
-        for i, (eid, key) in enumerate(pairs):
-            sim = sims[eid]
-            if sim is None:
-                out[i] = FAILED_RESIDUAL
-                continue
-            if eid not in per_event:
-                per_event[eid] = _event_residuals(sim, tgt[eid], resolution)
-            out[i] = per_event[eid].get(key, FAILED_RESIDUAL)
+        out = obj.residuals(values)
         evals[0] += 1
-        cost = _soft_l1(out)
-        history.append({**values, "cost": cost})
+        history.append({**values, "cost": _soft_l1(out)})
         return out
 
-    def table(r: np.ndarray) -> pd.DataFrame:
-        df = pd.DataFrame(index=[ev.id for ev in camp.events])
-        for (eid, key), v in zip(pairs, r, strict=True):
-            df.loc[eid, key] = v
-        return df
+    table = obj.table
 
     t0 = time.perf_counter()
     try:
@@ -334,7 +411,113 @@ def calibrate(
         def polish(x: Mapping[str, float]):
             u0 = np.clip(np.array([x[n] for n in names]) / scale, lo_u, hi_u)
             return least_squares(g, u0, bounds=(lo_u, hi_u), loss="soft_l1", diff_step=1e-3,
-                                 max_nfev=40, x_scale=1.0)
+                                 max_nfev=max_nfev, x_scale=1.0)
+
+        def alias_search(ls):
+            # l0 enters the excitation F_H = Fo cos(w t + phi) sin(beta (x2 - x3) + psi) through
+            # the static anvil-housing distance x2 - x3 ~ (L3 - LI - LOn) l0. A shift of the
+            # phase by pi flips the sign of F_H, which is the same as shifting time by half an
+            # excitation cycle, and a recording's time origin is arbitrary: steady features
+            # repeat every half period pi / (beta (L3 - LI - LOn)) of l0 (0.0083 m for the 7in
+            # tool, 1.2 % of l0), up to the small change of the gaps, which scale with l0.
+            # Each such stripe is a valley under 0.001 m wide along which the other parameters
+            # (wob) move freely, and its cost in them is rough (regime changes), so a local
+            # polish from a neighbouring stripe keeps the other parameters where they were.
+            # Scan instead: on each of the 2 alias_stripes + 1 stripes around the best fit,
+            # a coarse grid of the other parameters, then a finer one around the best cells,
+            # then polish the best distinct points.
+            best = dict(zip(names, (float(v) for v in ls.x * scale), strict=True))
+            p0 = {**base, **best}
+            half = math.pi / (abs(p0["beta"]) * (p0["L3"] - p0["LI"] - p0["LOn"]))
+            others = [n for n in names if n != "l0"]
+
+            def stripe(k: int) -> float:
+                return best["l0"] + k * half
+
+            def in_bounds(k: int) -> bool:
+                return lim["l0"][0] <= stripe(k) <= lim["l0"][1]
+
+            def grid1(lo: float, hi: float, num: int) -> np.ndarray:
+                if lo > 0 and hi / lo >= 4:
+                    return np.geomspace(lo, hi, num)
+                return np.linspace(lo, hi, num)
+
+            scored: list[tuple[float, dict[str, float]]] = []
+            by_stripe: dict[int, float] = {}
+
+            def score(k: int, vals: dict[str, float]) -> None:
+                c = _soft_l1(residuals(vals))
+                scored.append((c, vals))
+                by_stripe[k] = min(by_stripe.get(k, math.inf), c)
+                if callback:
+                    callback("alias", evals[0], c, vals)
+
+            if len(others) == 1:
+                coarse = grid1(*lim[others[0]], alias_grid)
+                others_grid = [{others[0]: float(w)} for w in coarse]
+            elif others:
+                from scipy.stats import qmc
+
+                m = max(1, math.ceil(math.log2(max(alias_grid * len(others), 2))))
+                pts = qmc.Sobol(d=len(others), scramble=True, seed=seed + 1).random_base2(m)
+                others_grid = [{n: lim[n][0] + float(ui) * (lim[n][1] - lim[n][0])
+                                for n, ui in zip(others, u, strict=True)} for u in pts]
+            else:
+                others_grid = [{}]
+
+            def scan_stripes(ks) -> None:
+                for k in ks:
+                    if k not in by_stripe and in_bounds(k):
+                        for ov in others_grid:
+                            score(k, {"l0": stripe(k), **ov})
+
+            # The fit of the stripes trends over many of them (the gaps scale with l0), so
+            # walk: while the best stripe is at an end of those scanned, scan further.
+            scan_stripes(range(-alias_stripes, alias_stripes + 1))
+            for _ in range(max_alias_rounds):
+                if not by_stripe:
+                    break
+                k_best = min(by_stripe, key=by_stripe.__getitem__)
+                lo_k, hi_k = min(by_stripe), max(by_stripe)
+                new: list[int] = []
+                if k_best >= hi_k - 1 and in_bounds(hi_k + 1):
+                    new += range(hi_k + 1, hi_k + alias_stripes + 1)
+                if k_best <= lo_k + 1 and in_bounds(lo_k - 1):
+                    new += range(lo_k - alias_stripes, lo_k)
+                if not new:
+                    break
+                scan_stripes(new)
+            if len(others) == 1:
+                # Finer: +-1 coarse step around the best cells of the n_starts best stripes.
+                (o,) = others
+                done: list[float] = []
+                for _, vals in sorted(scored, key=lambda cv: cv[0]):
+                    if len(done) >= n_starts:
+                        break
+                    if any(abs(vals["l0"] - v) < 0.5 * half for v in done):
+                        continue
+                    done.append(vals["l0"])
+                    i = int(np.argmin(np.abs(coarse - vals[o])))
+                    fine = grid1(coarse[max(i - 1, 0)], coarse[min(i + 1, coarse.size - 1)],
+                                 alias_refine)
+                    k = round((vals["l0"] - best["l0"]) / half)
+                    for w in fine:
+                        if not np.any(np.isclose(w, coarse)):
+                            score(k, {"l0": vals["l0"], o: float(w)})
+            ranked = sorted(scored, key=lambda cv: cv[0])
+            starts: list[dict[str, float]] = []
+            for _, vals in ranked:
+                if len(starts) >= n_starts:
+                    break
+                if all(abs(vals["l0"] - c["l0"]) > 0.5 * half or any(
+                        abs(vals[n] - c[n]) > 0.02 * (lim[n][1] - lim[n][0]) for n in others)
+                       for c in starts):
+                    starts.append(vals)
+            for cand in starts:
+                fit = polish(cand)
+                if fit.cost < ls.cost:
+                    ls = fit
+            return ls
 
         candidates: list[dict[str, float]] = [dict(x0)]
         if global_stage in ("scan", True):
@@ -379,22 +562,7 @@ def calibrate(
         fits = [polish(c) for c in candidates]
         ls = min(fits, key=lambda fr: fr.cost)
         if "l0" in names and alias_stripes > 0:
-            # l0 enters the excitation phase beta (x2 - x3) with x2 - x3 ~ (L3 - LI - LOn) l0,
-            # which repeats every 2 pi / (beta (L3 - LI - LOn)) in l0 (0.0166 for the 7in
-            # tool): neighbouring stripes fit almost as well, with the other parameters
-            # compensating. Polish from each neighbour of the best and keep the cheapest.
-            p0 = {**base, **dict(zip(names, (float(v) for v in ls.x * scale), strict=True))}
-            period = 2 * math.pi / (abs(p0["beta"]) * (p0["L3"] - p0["LI"] - p0["LOn"]))
-            for k in range(-alias_stripes, alias_stripes + 1):
-                if k == 0:
-                    continue
-                cand = {n: p0[n] for n in names}
-                cand["l0"] = p0["l0"] + k * period
-                if not (lim["l0"][0] <= cand["l0"] <= lim["l0"][1]):
-                    continue
-                fit = polish(cand)
-                if fit.cost < ls.cost:
-                    ls = fit
+            ls = alias_search(ls)
         # least_squares only accepts steps that lower its cost, so the polished point is never
         # worse than its start, and ls.fun already holds its residuals: no re-evaluation.
         est = dict(zip(names, (float(v) for v in ls.x * scale), strict=True))
@@ -430,5 +598,7 @@ def calibrate(
                       resolution=resolution, keys=list(keys) if keys else None,
                       bounds={n: list(lim[n]) for n in names}, popsize=popsize,
                       maxiter=maxiter, seed=seed, cycles=cycles, analyse_cycles=analyse_cycles,
-                      global_stage=global_stage),
+                      global_stage=global_stage, alias_stripes=alias_stripes,
+                      alias_grid=alias_grid, alias_refine=alias_refine,
+                      max_alias_rounds=max_alias_rounds, max_nfev=max_nfev),
     )

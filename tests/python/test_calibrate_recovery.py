@@ -1,0 +1,52 @@
+"""Calibration recovers l0 and wob from recordings the model wrote itself (CI-sized).
+
+A small version of ``bench/bench_calibrate.py``: recordings of the 7in preset (l0 = 0.7 m,
+wob = 1000 N/kg) through the field sensor chain (1024 Hz, 250 g, 0.3 g noise) at low WOB
+(0.5 and 1 klbf, where the bit and the on-bottom shoulder open and ``wob`` shows), then a
+calibration that is not told the truth. To stay cheap (about 40-80 s on 2 cores) the search
+ranges are narrowed to l0 = 0.66-0.74 m, which still holds 9 excitation-phase aliases
+(half-period 0.0083 m, 1.2 % of l0), and wob = 700-1400 N/kg; the calibration therefore
+starts at a corner of them, l0 = 0.74 and wob = 700, instead of l0 = 1.0 and wob = 500
+(which ``bench/bench_calibrate.py`` uses, over the default ranges l0 = 0.4-1.4 and
+wob = 200-2500).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from vadsim.calibrate import calibrate, calibration_cost
+from vadsim.synthetic import synthetic_campaign
+
+TRUTH = {"l0": 0.7, "wob": 1000.0}
+FLOWS = (150.0, 150.0, 250.0, 250.0, 350.0, 350.0)
+WOBS = (0.5, 1.0, 0.5, 1.0, 0.5, 1.0)
+CYCLES, ANALYSE = 120, 60
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    return synthetic_campaign("7in-cde", FLOWS, wob_klbf=WOBS, duration_s=4.0, noise_g=0.3,
+                              seed=5)
+
+
+def test_cost_is_lowest_at_the_truth_among_its_aliases(campaign):
+    """Identifiability: the truth fits better than its phase aliases with another wob."""
+    half = math.pi / (95.2 * (4.06 - 0.07 - 0.01))  # beta (L3 - LI - LOn), Table 2.1
+    truth, table = calibration_cost(campaign, TRUTH, cycles=CYCLES, analyse_cycles=ANALYSE)
+    assert table.shape[0] == len(FLOWS)
+    for k, wob in ((0, 850.0), (0, 1150.0), (-2, 1000.0), (4, 850.0)):
+        alias, _ = calibration_cost(campaign, {"l0": 0.7 + k * half, "wob": wob},
+                                    cycles=CYCLES, analyse_cycles=ANALYSE)
+        assert alias > truth, (k, wob, alias, truth)
+
+
+def test_calibration_recovers_l0_and_wob_within_5_percent(campaign):
+    res = calibrate(campaign, ("l0", "wob"), start={"l0": 0.74, "wob": 700.0},
+                    bounds={"l0": (0.66, 0.74), "wob": (700.0, 1400.0)}, n_global=16,
+                    n_starts=2, alias_stripes=2, alias_grid=14, alias_refine=9, max_nfev=5,
+                    cycles=CYCLES, analyse_cycles=ANALYSE)
+    err = {n: res.estimates[n] / TRUTH[n] - 1 for n in TRUTH}
+    assert all(abs(e) <= 0.05 for e in err.values()), (res.summary(), err)
+    assert res.cost_after < res.cost_before
