@@ -7,8 +7,8 @@ the simulation vs the targets, divided by the targets' spreads): a global stage 
 (differential evolution; the landscape is rough: Z jumps at regime boundaries and ``l0``
 enters the excitation's phase ``beta (x2 - x3)``: its features repeat every half period,
 0.0083 in ``l0`` for the 7in tool), then a local robust least-squares polish, a search of
-those phase-alias stripes (a grid of the other parameters on each), then an uncertainty estimate from the local Jacobian and a
-profile of the cost around the optimum.
+those phase-alias stripes (a grid of the other parameters on each), then an uncertainty
+estimate from the local Jacobian and a profile of the cost around the optimum.
 
 Targets are either a campaign's recorded features (``targets="recorded"``) or, for the
 dissertation's campaigns, its own simulated results (``targets="thesis-sim"``: simulated
