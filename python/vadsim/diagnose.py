@@ -152,13 +152,13 @@ class _Evaluator:
                  eids: Sequence[str]) -> dict[tuple[tuple[float, ...], str], _EventEval]:
         """Evaluations of every (point, event), run in parallel where not cached."""
         key = cand.key if cand is not None else "none"
-        todo = [(p, e) for p in points for e in eids if (key, p, e) not in self._cache]
-        missing = [e for e in eids if e not in self.keys]  # the base model's keys first:
-        base = {e: self.pool.submit(self._one, None, (), e) for e in missing}  # they define
-        for e, f in base.items():                                    # what is compared
+        # the base model's runs first: they define which features are compared
+        missing = [e for e in eids if e not in self.keys]
+        base = {e: self.pool.submit(self._one, None, (), e) for e in missing}
+        for e, f in base.items():
             self._cache[("none", (), e)] = f.result()
             self.n_evals += 1
-        todo = [(p, e) for p, e in todo if (key, p, e) not in self._cache]
+        todo = [(p, e) for p in points for e in eids if (key, p, e) not in self._cache]
         futures = {(p, e): self.pool.submit(self._one, cand, p, e) for p, e in todo}
         for (p, e), f in futures.items():
             self._cache[(key, p, e)] = f.result()
@@ -434,8 +434,9 @@ def _fit_candidate(ev: _Evaluator, cand: Candidate | None, folds, eids: list[str
         points = [p for (kk, p, e) in ev._cache if kk == cand.key and e == eids[0]]
         points = [p for p in dict.fromkeys(points)
                   if all((cand.key, p, e) in ev._cache for e in eids)]
-        prss = np.array([ev.rss(cand, p, eids) for p in points])
-        interval = _interval(cand, points, prss, n)
+        table = ev.evaluate(cand, points, eids)
+        event_rss = np.array([[np.sum(table[(p, e)].z ** 2) for e in eids] for p in points])
+        interval = _interval(cand, points, event_rss.sum(axis=1), n)
     # held-out
     held: dict[str, dict[str, float]] = {}
     held_sim: dict[str, dict[str, float]] = {}
@@ -448,8 +449,7 @@ def _fit_candidate(ev: _Evaluator, cand: Candidate | None, folds, eids: list[str
         else:
             # choose among the points evaluated on all events (the grid and the full fit's
             # refinement) by the training events' cost alone
-            table = ev.evaluate(cand, points, eids)
-            tc = np.array([sum(np.sum(table[(p, e)].z ** 2) for e in train) for p in points])
+            tc = event_rss[:, [eids.index(e) for e in train]].sum(axis=1)
             if len(cand.params) == 1:
                 us = np.array([_unit(cand, p)[0] for p in points])
                 o = np.argsort(us)
