@@ -4,6 +4,11 @@ The model is the 7-DOF vibro-impact model of an M.Sc. dissertation (bit, anvil, 
 sub, LWD, MWD; four impact surfaces and the rock), integrated by SUNDIALS CVODE with every
 contact switch located by root-finding. See MODEL.md in the docs for every equation.
 
+The package is layered (docs/ARCHITECTURE.md): ``model`` (presets, one run, run settings) ->
+``signals`` (labels, features, sensor chain) -> ``campaigns`` (the recordings format) ->
+``compare`` (the one comparison engine) -> ``fit`` (validate, calibrate, diagnose) and
+``studies`` (sweeps, maps, design) -> ``report`` and ``plots`` -> ``cli``.
+
 Quick start
 -----------
 >>> import vadsim
@@ -12,9 +17,20 @@ Quick start
 1
 """
 
-from vadsim import labels, presets, recordings, sensor
-from vadsim.presets import PRESETS, Preset, get_preset, make_params, param_names, preset_names
-from vadsim.simulate import (
+from vadsim import _aliases
+from vadsim import campaigns as recordings
+from vadsim._version import __version__
+from vadsim.model import presets
+from vadsim.model.presets import (
+    PRESETS,
+    Preset,
+    get_preset,
+    make_params,
+    param_names,
+    preset_names,
+)
+from vadsim.model.settings import RunSettings
+from vadsim.model.simulate import (
     SURFACES,
     G,
     SimulationResult,
@@ -22,22 +38,36 @@ from vadsim.simulate import (
     extra_force,
     simulate,
 )
+from vadsim.signals import labels, sensor
 
-__version__ = "0.1.0"
+_aliases.install(eager=("vadsim.presets", "vadsim.simulate", "vadsim.labels", "vadsim.sensor",
+                        "vadsim.recordings"))
 
 # The analysis modules pull in xarray, matplotlib and dask: loaded on first use, so that
 # `import vadsim` stays quick for a single run.
-_LAZY = (
-    "blind", "calibrate", "candidates", "design", "diagnose", "features", "locate", "plots",
-    "sweep", "synthetic", "thesis", "validate",
-)
+_LAZY = {
+    "blind": "vadsim.fit.blind",
+    "calibrate": "vadsim.fit.calibrate",
+    "candidates": "vadsim.fit.candidates",
+    "compare": "vadsim.compare",
+    "design": "vadsim.studies.design",
+    "diagnose": "vadsim.fit.diagnose",
+    "features": "vadsim.signals.features",
+    "locate": "vadsim.fit.locate",
+    "plots": "vadsim.plots",
+    "report": "vadsim.report",
+    "sweep": "vadsim.studies.sweep",
+    "synthetic": "vadsim.campaigns.synthetic",
+    "thesis": "vadsim.studies.thesis",
+    "validate": "vadsim.fit.validate",
+}
 
 
 def __getattr__(name: str):
     if name in _LAZY:
         import importlib
 
-        return importlib.import_module(f"vadsim.{name}")
+        return importlib.import_module(_LAZY[name])
     raise AttributeError(f"module 'vadsim' has no attribute {name!r}")
 
 
@@ -46,11 +76,14 @@ __all__ = [
     "PRESETS",
     "SURFACES",
     "Preset",
+    "RunSettings",
     "SimulationResult",
     "SolverError",
+    "__version__",
     "blind",
     "calibrate",
     "candidates",
+    "compare",
     "design",
     "diagnose",
     "extra_force",
@@ -64,6 +97,7 @@ __all__ = [
     "preset_names",
     "presets",
     "recordings",
+    "report",
     "sensor",
     "simulate",
     "sweep",

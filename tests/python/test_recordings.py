@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import vadsim
 import vadsim.recordings as rec
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -559,9 +560,9 @@ def test_save_refuses_what_would_not_load(tmp_path: Path, case: str) -> None:
 
 
 def _field_table() -> list[dict[str, str]]:
-    path = Path(rec.__file__).parent / "data" / "thesis" / "field_events.csv"
-    with path.open(newline="") as fh:
-        return list(csv.DictReader(fh))
+    from vadsim.data import thesis_rows
+
+    return thesis_rows("field_events.csv")
 
 
 def test_thesis_campaigns_counts_and_setup() -> None:
@@ -621,12 +622,12 @@ def test_thesis_campaigns_are_fresh_copies() -> None:
 
 
 def test_shipped_thesis_campaigns_are_up_to_date(tmp_path: Path) -> None:
-    script = Path(rec.__file__).parent / "data" / "make_thesis_campaigns.py"
+    script = Path(vadsim.__file__).parent / "data" / "make_thesis_campaigns.py"
     spec = importlib.util.spec_from_file_location("make_thesis_campaigns", script)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     module.main(tmp_path)
-    shipped = Path(rec.__file__).parent / "data" / "campaigns"
+    shipped = Path(vadsim.__file__).parent / "data" / "campaigns"
     for key in rec.THESIS_CAMPAIGNS:
         assert ((tmp_path / key / "campaign.toml").read_text()
                 == (shipped / key / "campaign.toml").read_text()), key

@@ -48,7 +48,7 @@ def build_campaigns(table: Path = FIELD_TABLE) -> dict[str, object]:
     dict of str to vadsim.recordings.Campaign
         Keyed ``<tool>-<bit, lower case>``, in table order.
     """
-    from vadsim.recordings import Campaign, Event, Sensor
+    from vadsim.campaigns import Campaign, Event, Sensor
 
     with table.open(newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
@@ -107,7 +107,7 @@ def main(out_dir: Path | None = None) -> list[Path]:
     list of pathlib.Path
         The folders written.
     """
-    from vadsim.recordings import save_campaign
+    from vadsim.campaigns import save_campaign
 
     out_dir = HERE / "campaigns" if out_dir is None else Path(out_dir)
     return [save_campaign(c, out_dir / key) for key, c in build_campaigns().items()]

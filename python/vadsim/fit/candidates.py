@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from vadsim.simulate import extra_force
+from vadsim.model.simulate import extra_force
 
 __all__ = ["CANDIDATES", "Candidate", "ModelChange", "ParamSpec", "candidate", "candidate_ids"]
 

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim import _core
-from vadsim.presets import Preset, get_preset, make_params
+from vadsim.model.presets import Preset, get_preset, make_params
 
 __all__ = [
     "G",
@@ -164,7 +164,7 @@ class SimulationResult:
     @property
     def scenario(self) -> int:
         """Impact scenario of dissertation Table 4.2 (see :func:`vadsim.labels.scenario`)."""
-        from vadsim.labels import scenario
+        from vadsim.signals.labels import scenario
 
         z = self.z
         return scenario(z["spring"], z["impact"])

@@ -15,8 +15,6 @@ compared with the field, and what MODEL.md's reference table reports).
 
 from __future__ import annotations
 
-import datetime as _dt
-import json
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
@@ -28,12 +26,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vadsim import __version__ as _version
-from vadsim.features import Feature, event_features, summary_features
-from vadsim.presets import Preset, get_preset, load_preset_file
-from vadsim.recordings import Campaign, Event, load_campaign, thesis_campaigns
-from vadsim.sensor import SIMULATION_OVERSAMPLING, sensor_chain
-from vadsim.simulate import G, SimulationResult, simulate
+from vadsim.model.presets import Preset, get_preset, load_preset_file
+from vadsim.model.simulate import G, SimulationResult, simulate
+from vadsim.campaigns import Campaign, Event, load_campaign, thesis_campaigns
+from vadsim.signals.features import Feature, event_features, summary_features
+from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
 __all__ = [
     "EventSimulation",
@@ -48,7 +45,6 @@ __all__ = [
     "run_event",
     "simulate_event",
     "validate",
-    "write_report",
 ]
 
 
@@ -334,42 +330,6 @@ def validate(
     )
 
 
-def _peaks_figure(result: ValidationResult):
-    from matplotlib.figure import Figure
-
-    sensors = [s for s in result.campaign.sensors
-               if any(f"{s}_peak_mean_g" in r for r in result.recorded.values())]
-    sensors = sensors or list(result.campaign.sensors)[:1]
-    fig = Figure(figsize=(6.5 * len(sensors), 4.6), layout="constrained")
-    axes = fig.subplots(1, len(sensors), squeeze=False)[0]
-    flows = np.array([ev.flow_gpm for ev in result.campaign.events])
-    order = np.argsort(flows)
-    for ax, s in zip(axes, sensors, strict=True):
-        key = f"{s}_peak_mean_g"
-        rec = np.array([result.recorded[ev.id].get(key, Feature(math.nan, math.nan, 0)).value
-                        for ev in result.campaign.events])
-        spread = np.array([result.recorded[ev.id].get(key, Feature(math.nan, math.nan, 0))
-                           .spread for ev in result.campaign.events])
-        sim = np.array([result.simulations[ev.id].sensor.get(key, Feature(math.nan, 0, 0))
-                        .value for ev in result.campaign.events])
-        full = np.array([result.simulations[ev.id].full.get(key, Feature(math.nan, 0, 0))
-                         .value for ev in result.campaign.events])
-        ax.errorbar(flows[order], rec[order], yerr=spread[order], fmt="s", color="black",
-                    capsize=3, label="recorded (spread)")
-        ax.plot(flows[order], sim[order], "o-", color="#0072B2",
-                label="model through the sensor chain")
-        ax.plot(flows[order], full[order], "^--", color="#D55E00",
-                label="model at full resolution")
-        ax.set_xlabel("flow rate (gal/min)")
-        ax.set_ylabel(f"{s} mean of 200 ms peaks (g)")
-        ax.set_title(f"{s}: recorded vs model")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle(f"{result.campaign.name}\naxial vibration peaks vs flow, preset "
-                 f"{result.preset.name}", fontsize=10)
-    return fig
-
-
 def findings(result: ValidationResult, threshold: float = 1.0) -> list[str]:
     """Plain-language statements of where the model matches and where it does not: for each
     compared feature (through the sensor chain and at full resolution), the mean
@@ -400,160 +360,10 @@ def findings(result: ValidationResult, threshold: float = 1.0) -> list[str]:
     return out
 
 
-def _fmt(v: Any) -> str:
-    if isinstance(v, float):
-        return "" if math.isnan(v) else f"{v:.3g}"
-    return str(v)
+def __getattr__(name: str) -> Any:
+    # vadsim 0.1 kept the report writer here; it now lives in vadsim.report
+    if name == "write_report":
+        from vadsim.report.validation import write_validation_report
 
-
-def _markdown_table(df: pd.DataFrame) -> str:
-    cols = [df.index.name or ""] + [str(c) for c in df.columns]
-    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    for idx, row in df.iterrows():
-        lines.append("| " + " | ".join([str(idx)] + [_fmt(v) for v in row.to_numpy()]) + " |")
-    return "\n".join(lines)
-
-
-def write_report(result: ValidationResult, folder: str | os.PathLike[str],
-                 fmt: str = "md", command: str | None = None) -> Path:
-    """Write ``report.md`` (or ``report.html``) with its figures into ``folder``.
-
-    The report has: what was compared and how; a per-feature summary of the standardised
-    residuals; the peaks-vs-flow figure (recorded, model through the sensor chain, model at
-    full resolution); the mismatch heat map; one table per event.
-    """
-    if fmt not in ("md", "html"):
-        raise ValueError(f"fmt = {fmt!r} must be 'md' or 'html'")
-    from vadsim import plots
-
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
-    fig = _peaks_figure(result)
-    fig.savefig(out / "peaks_vs_flow.png", dpi=110)
-    res = result.residuals.dropna(axis=1, how="all")
-    res_full = result.residuals_full.dropna(axis=1, how="all")
-    heat = None
-    if not res.empty:
-        heat = "mismatch_heatmap.png"
-        table = pd.concat([res, res_full.add_suffix(" [full res.]")], axis=1)
-        table.index = [f"{e} ({result.campaign.event(e).flow_gpm:g} gpm)" for e in table.index]
-        plots.mismatch_heatmap(table, path=out / heat,
-                               title=f"{result.campaign.name}: (model - recorded) / spread")
-    summary = pd.DataFrame({
-        "mean z (sensor chain)": res.mean(),
-        "RMS z (sensor chain)": np.sqrt((res ** 2).mean()),
-        "events |z|>2": (res.abs() > 2).sum(),
-        "mean z (full resolution)": res_full.reindex(columns=res.columns).mean(),
-    })
-    summary.index.name = "feature"
-    ev_table = result.events_table()
-    camp = result.campaign
-    lines = [
-        f"# Validation report: {camp.name}",
-        "",
-        f"- tool {camp.tool}, bit {camp.bit}; preset `{result.preset.name}`; "
-        f"overrides {json.dumps(result.overrides) if result.overrides else 'none'}",
-        f"- {len(camp.events)} events; sensors: "
-        + ", ".join(f"{n} (dof {s.dof}, {s.rate_hz:g} Hz, {s.range_g:g} g"
-                    + (f", low-pass {s.lowpass_hz:g} Hz" if s.lowpass_hz else "") + ")"
-                    for n, s in camp.sensors.items()),
-        f"- runs of {result.settings['cycles']:g} cycles, last "
-        f"{result.settings['analyse_cycles']:g} analysed; vadsim {_version}; "
-        f"{_dt.datetime.now().isoformat(timespec='seconds')}",
-    ]
-    if command:
-        lines.append(f"- command: `{command}`")
-    lines += [
-        "",
-        "Simulated accelerations pass through each sensor's chain (low-pass, sampling at the "
-        "sensor rate, clipping) before their features are computed, as the recordings', "
-        "averaged over 8 sampling phases (a recording's phase is unknown). Residuals are "
-        "standardised by the recording's own spread (window-to-window, or a default of 10 % "
-        "for summary-only events) combined with the model's spread over sampling phases. The "
-        "model's features at full resolution (the solver's 20x oversampled signal, as the "
-        "dissertation compared) are shown too, standardised by the recording's spread.",
-        "",
-        "## Findings",
-        "",
-        *[f"- {line}" for line in findings(result)],
-        "",
-        "## Summary per feature",
-        "",
-        _markdown_table(summary),
-        "",
-        "## Peaks vs flow",
-        "",
-        "![peaks vs flow](peaks_vs_flow.png)",
-        "",
-    ]
-    if heat:
-        lines += ["## Standardised mismatch (event x feature x sensor)", "",
-                  f"![mismatch heat map]({heat})", ""]
-    lines += ["## Events", ""]
-    for ev in camp.events:
-        sim = result.simulations[ev.id]
-        rec = result.recorded[ev.id]
-        rows = []
-        for key, f in rec.items():
-            s = sim.sensor.get(key)
-            fu = sim.full.get(key)
-            rows.append({"feature": key, "recorded": f.value, "spread": f.spread,
-                         "model (sensor chain)": s.value if s else math.nan,
-                         "model (full resolution)": fu.value if fu else math.nan,
-                         "z": result.residuals.loc[ev.id].get(key, math.nan)})
-        lines += [
-            f"### {ev.id}: {ev.flow_gpm:g} gal/min ({sim.f_exc_hz:.1f} Hz), "
-            f"{ev.wob_klbf:g} klbf; model scenario {sim.scenario}, "
-            f"Z spring {sim.z['spring']:.2f}, Z impact {sim.z['impact']:.2f}",
-            "",
-            _markdown_table(pd.DataFrame(rows).set_index("feature")) if rows else "(no features)",
-            "",
-        ]
-    md = "\n".join(lines)
-    (out / "events.csv").write_text(ev_table.to_csv())
-    if fmt == "md":
-        path = out / "report.md"
-        path.write_text(md)
-        return path
-    path = out / "report.html"
-    path.write_text(_md_to_html(md, camp.name))
-    return path
-
-
-def _md_to_html(md: str, title: str) -> str:
-    """A small Markdown-to-HTML rendering of the report (headings, lists, tables, images)."""
-    import html
-
-    out = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
-           "</title><style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
-           "table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;"
-           "padding:2px 6px;text-align:right}img{max-width:100%}</style></head><body>"]
-    table: list[str] = []
-
-    def flush() -> None:
-        if table:
-            rows = [r.strip("|").split("|") for r in table if not set(r) <= set("|-")]
-            out.append("<table>" + "".join(
-                "<tr>" + "".join((f"<th>{html.escape(c.strip())}</th>" if i == 0 else
-                                  f"<td>{html.escape(c.strip())}</td>") for c in r) + "</tr>"
-                for i, r in enumerate(rows)) + "</table>")
-            table.clear()
-
-    for line in md.splitlines():
-        if line.startswith("|"):
-            table.append(line)
-            continue
-        flush()
-        if line.startswith("#"):
-            level = len(line) - len(line.lstrip("#"))
-            out.append(f"<h{level}>{html.escape(line.lstrip('#').strip())}</h{level}>")
-        elif line.startswith("!["):
-            src = line[line.index("(") + 1:line.rindex(")")]
-            out.append(f"<img src='{html.escape(src)}'>")
-        elif line.startswith("- "):
-            out.append(f"<li>{html.escape(line[2:])}</li>")
-        elif line.strip():
-            out.append(f"<p>{html.escape(line)}</p>")
-    flush()
-    out.append("</body></html>")
-    return "\n".join(out)
+        return write_validation_report
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -68,7 +68,7 @@ import pandas as pd
 from scipy.signal import find_peaks, get_window, periodogram
 
 from vadsim._checks import finite_1d, finite_positive, number
-from vadsim.labels import (
+from vadsim.signals.labels import (
     IMPACT_HEIGHT_FRAC,
     IMPACT_MIN_DISTANCE_S,
     PEAK_WINDOW_S,

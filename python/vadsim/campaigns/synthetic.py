@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vadsim.presets import Preset, get_preset
-from vadsim.recordings import Campaign, Event, Sensor
-from vadsim.sensor import SIMULATION_OVERSAMPLING, sensor_chain
-from vadsim.simulate import G, simulate
+from vadsim.model.presets import Preset, get_preset
+from vadsim.model.simulate import G, simulate
+from vadsim.campaigns import Campaign, Event, Sensor
+from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
 __all__ = ["DEFAULT_SENSORS", "synthetic_campaign"]
 

@@ -9,11 +9,11 @@ table anyone can regenerate (``vadsim thesis``).
 
 from __future__ import annotations
 
-from importlib import resources
-
 import numpy as np
 import pandas as pd
 import xarray as xr
+
+from vadsim.data import field_events, published_regimes
 
 __all__ = [
     "compare_peaks",
@@ -22,26 +22,6 @@ __all__ = [
     "published_regimes",
     "regime_intervals",
 ]
-
-
-def _csv(name: str) -> pd.DataFrame:
-    with resources.files("vadsim").joinpath(f"data/thesis/{name}").open() as fh:
-        return pd.read_csv(fh)
-
-
-def published_regimes() -> pd.DataFrame:
-    """The five regimes of the 7in flow sweep (dissertation section 4.1)."""
-    return _csv("regimes_7in.csv")
-
-
-def field_events(tool: str | None = None, bit: str | None = None) -> pd.DataFrame:
-    """Every validation event: field and simulated peaks, impact frequency, behaviour."""
-    df = _csv("field_events.csv")
-    if tool is not None:
-        df = df[df["tool"] == tool]
-    if bit is not None:
-        df = df[df["bit"] == bit]
-    return df.reset_index(drop=True)
 
 
 def regime_intervals(ds: xr.Dataset) -> pd.DataFrame:

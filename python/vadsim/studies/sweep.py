@@ -27,10 +27,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from vadsim import __version__ as _version
-from vadsim.labels import impact_frequency, periodicity, poincare_period, scenario
-from vadsim.presets import get_preset, make_params
-from vadsim.simulate import SURFACES, G, SolverError, extra_force, simulate
+from vadsim._version import __version__ as _version
+from vadsim.model.presets import get_preset, make_params
+from vadsim.model.simulate import SURFACES, G, SolverError, extra_force, simulate
+from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
 
 __all__ = [
     "DERIVED_PARAMETERS",

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from vadsim.labels import regime_name
-from vadsim.presets import PRESETS, get_preset, param_table
-from vadsim.simulate import SURFACES, SimulationResult, SolverError, simulate
+from vadsim.model.presets import PRESETS, get_preset, param_table
+from vadsim.model.simulate import SURFACES, SimulationResult, SolverError, simulate
+from vadsim.signals.labels import regime_name
 
 __all__ = ["main"]
 
@@ -121,7 +121,7 @@ def _cmd_presets(args: argparse.Namespace) -> int:
 
 
 def _flows(args: argparse.Namespace) -> list[float]:
-    from vadsim.sweep import flows_from_hz
+    from vadsim.studies.sweep import flows_from_hz
 
     if args.hz:
         lo, hi, step = args.hz
@@ -147,7 +147,7 @@ def _sweep_options(args: argparse.Namespace) -> dict:
 
 
 def _finish_dataset(ds, args: argparse.Namespace) -> None:
-    from vadsim.sweep import save_dataset
+    from vadsim.studies.sweep import save_dataset
 
     if args.out:
         save_dataset(ds, args.out)
@@ -155,8 +155,8 @@ def _finish_dataset(ds, args: argparse.Namespace) -> None:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from vadsim import thesis
-    from vadsim.sweep import sweep
+    from vadsim.studies import thesis
+    from vadsim.studies.sweep import sweep
 
     t0 = time.perf_counter()
     ds = sweep(args.preset, _flows(args), **_sweep_options(args))
@@ -185,7 +185,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
-    from vadsim.sweep import sweep
+    from vadsim.studies.sweep import sweep
 
     axes = {args.param: _arange(*args.values, flag="--values") if args.steps is None
             else list(np.linspace(args.values[0], args.values[1], args.steps))}
@@ -214,7 +214,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
-    from vadsim import design
+    from vadsim.studies import design
 
     common = dict(workers=args.workers, scheduler=args.scheduler, progress=not args.quiet,
                   cycles=args.cycles, analyse_cycles=args.analyse, detail="map")
@@ -280,7 +280,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
 
 
 def _base_value(args: argparse.Namespace) -> float:
-    from vadsim import design
+    from vadsim.studies import design
 
     s = design.STUDIES[args.study]
     return 1.0 if s.parameter == "gap_ratio" else get_preset(args.preset).params[s.parameter]
@@ -297,8 +297,8 @@ def _print_design(res) -> None:
 
 
 def _cmd_thesis(args: argparse.Namespace) -> int:
-    from vadsim import thesis
-    from vadsim.sweep import sweep
+    from vadsim.studies import thesis
+    from vadsim.studies.sweep import sweep
 
     ds = sweep("7in-cde", _arange(200, 650, 10, "--flows"), cycles=args.cycles,
                analyse_cycles=args.analyse, mode=args.mode, workers=args.workers,
@@ -317,7 +317,7 @@ def _cmd_thesis(args: argparse.Namespace) -> int:
 
 def _cmd_plot(args: argparse.Namespace) -> int:
     from vadsim import plots
-    from vadsim.sweep import load_dataset
+    from vadsim.studies.sweep import load_dataset
 
     if args.kind == "traces":
         preset = args.inputs[0] if args.inputs else "7in-cde"
@@ -343,7 +343,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from vadsim.validate import validate, write_report
+    from vadsim.fit.validate import validate, write_report
 
     t0 = time.perf_counter()
     res = validate(args.campaign, overrides=_parse_overrides(args.set or []),
@@ -361,7 +361,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from vadsim.calibrate import calibrate
+    from vadsim.fit.calibrate import calibrate
 
     bounds = {}
     for name, text in _parse_pairs(args.bounds, "--bounds").items():
@@ -403,7 +403,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from vadsim.diagnose import diagnose, predict, write_diagnosis_report
+    from vadsim.fit.diagnose import diagnose, predict, write_diagnosis_report
 
     def say(msg: str) -> None:
         if not args.json:
@@ -428,7 +428,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_blind(args: argparse.Namespace) -> int:
-    from vadsim.blind import DEFAULT_SCENARIOS, blind_benchmark
+    from vadsim.fit.blind import DEFAULT_SCENARIOS, blind_benchmark
 
     scenarios = DEFAULT_SCENARIOS
     if args.only:

@@ -11,16 +11,15 @@ lengths in units of ``l0`` (metres = L * l0).
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from vadsim import _core
+from vadsim.data import table_2_1
 
 __all__ = [
     "KLBF_N",
@@ -96,20 +95,8 @@ class Preset:
         return replace(self, params=merged)
 
 
-def _table_2_1() -> dict[str, dict[str, float]]:
-    """Table 2.1 from the shipped CSV: ``{"7in": {...}, "9.5in": {...}, "7in_rc_m1": x}``."""
-    text = resources.files("vadsim").joinpath("data/thesis/parameters.csv").read_text()
-    tools: dict[str, dict[str, float]] = {"7in": {}, "9.5in": {}}
-    for row in csv.DictReader(text.splitlines()):
-        for tool in tools:
-            value = row[f"tool_{tool}"].strip()
-            if value:
-                tools[tool][row["name"]] = float(value)
-    return tools
-
-
 def _build_presets() -> dict[str, Preset]:
-    table = _table_2_1()
+    table = table_2_1()
     base7 = {k: v for k, v in table["7in"].items() if k != "m1_RC"}
     base95 = dict(table["9.5in"])
     defaults = {"hc_n": 1.0, "hc_alpha": 0.2}

@@ -1,35 +1,5 @@
-"""Field-test campaigns: reading, validating and writing recordings.
-
-Why this module exists: the simulator is only useful if its output can be held against what
-downhole accelerometers recorded, and field files are where silent mistakes hide (a dropped
-sample, a column bolted to the wrong sensor, a clipped peak taken at face value). So every rule
-of the campaign format (``RECORDINGS.md``) is checked here, once, and every violation raises a
-:class:`CampaignError` that names the file and the line or TOML key, so that the person holding
-the file can fix it. Clipped samples are not an error (real sensors clip) but are flagged per
-sample and announced with a warning, because a clipped peak under-reports the vibration.
-
-Format extensions (all optional, all round-tripped by :func:`save_campaign`):
-
-- top-level ``description`` (string): free text, e.g. where the data came from;
-- per event ``reference`` (inline table of strings/numbers/booleans): values published for the
-  event by someone else (the dissertation's own simulation, for the thesis campaigns).
-
-Unknown keys are rejected rather than ignored, so that a typo such as ``lowpass = 400`` cannot
-silently drop a sensor's anti-alias filter from the comparison.
-
-Time check ("uniform at rate_hz within 1e-6 relative"): read as a sampling clock good to 1e-6
-relative, printed with 7 decimals. Sample i must lie within
-``1e-6 * i / rate_hz + min(1e-7 s, 0.01 / rate_hz)`` of ``t0 + i / rate_hz``. A per-step 1e-6
-test would reject the format's own example (``0.0009766`` for 1/1024 s is off by 4e-5
-relative); this one still catches a single dropped, repeated or shifted sample.
-
-Numeric precision of :func:`save_campaign`: accelerations are written with Python's shortest
-round-trip representation of the float64 value, so they read back bit-identical (float32 data
-is widened to float64 first, hence also exact). ``time_s`` is written with a fixed number of
-decimals, 7 as in the format's example (more only for rates above 10 kHz), so a time that is not
-already on that decimal grid moves by at most half a unit of the last decimal (5e-8 s) on the
-first save and is stable afterwards.
-"""
+"""Reading a campaign (RECORDINGS.md): every rule checked once, every violation a
+:class:`~vadsim.campaigns.format.CampaignError` naming the file and the line or TOML key."""
 
 from __future__ import annotations
 
@@ -37,55 +7,32 @@ import csv
 import io
 import math
 import re
-import shutil
+import tomllib
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
 import pandas as pd
 
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python 3.10: the project allows it; tomli is the same parser.
-    import tomli as tomllib  # type: ignore[no-redef]
+from vadsim.campaigns.format import (
+    BARE_KEY_RE,
+    CAMPAIGN_FILE,
+    FEATURES,
+    KNOWN_BITS,
+    KNOWN_TOOLS,
+    RATE_TOLERANCE,
+    TIME_RESOLUTION_S,
+    Campaign,
+    CampaignError,
+    ClippedSamplesWarning,
+    Event,
+    Sensor,
+    toml_str,
+)
 
-__all__ = [
-    "KNOWN_TOOLS",
-    "KNOWN_BITS",
-    "FEATURES",
-    "CampaignError",
-    "ClippedSamplesWarning",
-    "Sensor",
-    "Event",
-    "Campaign",
-    "load_campaign",
-    "save_campaign",
-    "thesis_campaigns",
-    "THESIS_CAMPAIGNS",
-]
-
-#: Tool presets the project knows by name. Kept as the single source of truth here until the
-#: presets module owns the list (it can then re-export or replace this constant).
-KNOWN_TOOLS: tuple[str, ...] = ("7in", "9.5in")
-
-#: Bits the model has a bit mass ``m1`` for (MODEL.md).
-KNOWN_BITS: tuple[str, ...] = ("CDE", "RC", "PDC")
-
-#: Summary features an event may carry, per sensor, as ``<sensor>_<feature>`` (MODEL.md).
-FEATURES: tuple[str, ...] = ("peak_mean_g", "peak_std_g", "impact_hz")
-
-#: Relative error allowed between the recorded sampling clock and ``rate_hz``.
-RATE_TOLERANCE = 1e-6
-
-#: Absolute time jitter allowed per sample, on top of the clock tolerance: the format prints
-#: ``time_s`` with 7 decimals, so a perfect clock still shows up to 5e-8 s of rounding.
-TIME_RESOLUTION_S = 1e-7
-
-#: Name of the campaign description file inside a campaign folder.
-CAMPAIGN_FILE = "campaign.toml"
+__all__ = ["TomlContext", "load_campaign", "parse_document", "time_problem", "tool_file"]
 
 _TOP_KEYS = ("name", "tool", "bit", "wob_klbf", "description", "sensors", "events")
 _SENSOR_KEYS = ("dof", "rate_hz", "range_g", "lowpass_hz")
@@ -93,7 +40,6 @@ _EVENT_KEYS = ("id", "flow_gpm", "wob_klbf", "file", "features", "reference")
 # Sensor names become CSV column prefixes and TOML keys; restricting them to TOML's bare-key
 # alphabet keeps both unambiguous without quoting rules.
 _SENSOR_NAME_RE = re.compile(r"[A-Za-z0-9_-]+")
-_BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
 _NUMBER_RE = re.compile(r"\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*")
 # Tokens pandas reads as missing values; named as such rather than as "non-numeric".
 _NA_TOKENS = frozenset(
@@ -103,152 +49,6 @@ _NA_TOKENS = frozenset(
 _INF_TOKENS = frozenset({"inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"})
 _LINE_SPLIT_RE = re.compile(r"\r\n|\r|\n")
 _LINE_SPLIT_BYTES_RE = re.compile(rb"\r\n|\r|\n")
-
-
-class CampaignError(ValueError):
-    """A campaign folder violates the format; the message names the file and line or key."""
-
-
-class ClippedSamplesWarning(UserWarning):
-    """Some samples of an event reached the sensor's range and are flagged as clipped."""
-
-
-@dataclass
-class Sensor:
-    """One downhole accelerometer channel.
-
-    Parameters
-    ----------
-    name : str
-        Column prefix in the event CSVs (``<name>_g``) and key in ``[sensors.<name>]``.
-    dof : int
-        Degree of freedom (1..7) the sensor is bolted to.
-    rate_hz : float
-        Sampling rate.
-    range_g : float
-        Full-scale range; samples with ``|a| >= range_g`` are clipped.
-    lowpass_hz : float or None
-        Anti-alias corner frequency, or None when the sensor has none.
-    """
-
-    name: str
-    dof: int
-    rate_hz: float
-    range_g: float
-    lowpass_hz: float | None = None
-
-    @property
-    def column(self) -> str:
-        """Name of this sensor's column in an event CSV."""
-        return f"{self.name}_g"
-
-
-@dataclass(eq=False)
-class Event:
-    """One steady operating point of a campaign.
-
-    Parameters
-    ----------
-    id : str
-        Identifier, unique within the campaign.
-    flow_gpm : float
-        Flow rate in gal/min.
-    wob_klbf : float
-        Weight on bit in klbf (the campaign default already applied).
-    file : str or None
-        CSV path relative to the campaign folder, or None for a summary-only event.
-    features : dict of str to float
-        Summary features keyed ``<sensor>_<feature>``.
-    data : pandas.DataFrame or None
-        Samples: ``time_s`` (s) then one ``<sensor>_g`` column per sensor, in sensor
-        declaration order, float64; axial acceleration in g, positive downward.
-    clipped : dict of str to numpy.ndarray
-        Per sensor name, a boolean mask over the samples, True where ``|a| >= range_g``.
-        Derived from ``data`` by :func:`load_campaign`; not part of equality.
-    reference : dict
-        Values published for this event by others (format extension, see module docstring).
-    """
-
-    id: str
-    flow_gpm: float
-    wob_klbf: float
-    file: str | None = None
-    features: dict[str, float] = field(default_factory=dict)
-    data: pd.DataFrame | None = field(default=None, repr=False)
-    clipped: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-    reference: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def n_clipped(self) -> int:
-        """Total number of clipped samples over all sensors."""
-        return int(sum(int(np.count_nonzero(m)) for m in self.clipped.values()))
-
-    def __eq__(self, other: object) -> bool:
-        # Written by hand because DataFrame == DataFrame is elementwise, which breaks the
-        # dataclass-generated comparison; `clipped` is derived from `data`, so it is skipped.
-        if not isinstance(other, Event):
-            return NotImplemented
-        if (self.id, self.flow_gpm, self.wob_klbf, self.file) != (
-            other.id, other.flow_gpm, other.wob_klbf, other.file
-        ):
-            return False
-        if self.features != other.features or self.reference != other.reference:
-            return False
-        if self.data is None or other.data is None:
-            return self.data is None and other.data is None
-        return list(self.data.columns) == list(other.data.columns) and np.array_equal(
-            self.data.to_numpy(dtype=np.float64), other.data.to_numpy(dtype=np.float64)
-        )
-
-    __hash__ = None  # type: ignore[assignment]  # mutable, compared by value
-
-
-@dataclass
-class Campaign:
-    """One field test: a tool, a bit, sensors and events.
-
-    Parameters
-    ----------
-    name : str
-        Human-readable name.
-    tool : str
-        A name in :data:`KNOWN_TOOLS` or a preset file path relative to the campaign folder.
-    bit : str
-        One of :data:`KNOWN_BITS`.
-    wob_klbf : float or None
-        Default weight on bit for events that do not give one.
-    sensors : dict of str to Sensor
-        Keyed by sensor name, in declaration order.
-    events : list of Event
-        In file order.
-    root : pathlib.Path or None
-        Folder the campaign was loaded from; not part of equality.
-    description : str
-        Free text (format extension).
-    """
-
-    name: str
-    tool: str
-    bit: str
-    wob_klbf: float | None
-    sensors: dict[str, Sensor]
-    events: list[Event]
-    root: Path | None = field(default=None, compare=False)
-    description: str = ""
-
-    def event(self, event_id: str) -> Event:
-        """Return the event with this id.
-
-        Raises
-        ------
-        KeyError
-            If no event has this id.
-        """
-        for ev in self.events:
-            if ev.id == event_id:
-                return ev
-        raise KeyError(event_id)
-
 
 # --------------------------------------------------------------------------------------------
 # TOML key -> line lookup. tomllib returns plain dicts without positions, yet a line number is
@@ -331,12 +131,12 @@ def _format_key(path: tuple[str | int, ...]) -> str:
         if isinstance(part, int):
             out += f"[{part}]"
         else:
-            text = part if _BARE_KEY_RE.fullmatch(part) else _toml_str(part)
+            text = part if BARE_KEY_RE.fullmatch(part) else toml_str(part)
             out += f".{text}" if out else text
     return out
 
 
-class _TomlContext:
+class TomlContext:
     """Formats key errors for one campaign.toml (file + best-effort line + key path)."""
 
     def __init__(self, file: Path | str, text: str | None) -> None:
@@ -355,7 +155,7 @@ def _type_name(value: object) -> str:
     return names.get(type(value), type(value).__name__)
 
 
-def _get_str(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+def _get_str(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
              required: bool = True, label: str = "") -> str | None:
     key = path[-1]
     if key not in table:
@@ -370,7 +170,7 @@ def _get_str(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int,
     return value
 
 
-def _get_number(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+def _get_number(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
                 required: bool = True, label: str = "") -> float | None:
     """A finite number; bools are rejected even though Python treats them as ints."""
     key = path[-1]
@@ -390,7 +190,7 @@ def _get_number(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | i
     return number
 
 
-def _get_positive(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+def _get_positive(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
                   required: bool = True, label: str = "") -> float | None:
     number = _get_number(ctx, table, path, required, label)
     if number is not None and number <= 0:
@@ -398,7 +198,7 @@ def _get_positive(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str |
     return number
 
 
-def _check_keys(ctx: _TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+def _check_keys(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
                 allowed: tuple[str, ...], label: str = "") -> None:
     for key in table:
         if key not in allowed:
@@ -415,7 +215,7 @@ def _split_feature(key: str, sensors: Mapping[str, Sensor]) -> tuple[str, str] |
     return None
 
 
-def _tool_file(root: Path, tool: str) -> Path | None:
+def tool_file(root: Path, tool: str) -> Path | None:
     try:
         candidate = root / tool
         return candidate if candidate.is_file() else None
@@ -424,7 +224,7 @@ def _tool_file(root: Path, tool: str) -> Path | None:
         return None
 
 
-def _parse_document(doc: Mapping[str, Any], ctx: _TomlContext, root: Path | None) -> Campaign:
+def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) -> Campaign:
     """Validate a parsed campaign.toml and build a Campaign without sample data.
 
     ``root`` is the folder used to resolve a preset-file tool; None skips that check.
@@ -436,7 +236,7 @@ def _parse_document(doc: Mapping[str, Any], ctx: _TomlContext, root: Path | None
     assert name is not None and tool is not None and bit is not None
     if bit not in KNOWN_BITS:
         ctx.fail(("bit",), f"unknown bit {bit!r} (allowed: {' | '.join(KNOWN_BITS)})")
-    if tool not in KNOWN_TOOLS and root is not None and _tool_file(root, tool) is None:
+    if tool not in KNOWN_TOOLS and root is not None and tool_file(root, tool) is None:
         ctx.fail(("tool",), f"unknown tool {tool!r}: neither a known preset "
                  f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file {root / tool}")
     wob_default = _get_positive(ctx, doc, ("wob_klbf",), required=False)
@@ -452,7 +252,7 @@ def _parse_document(doc: Mapping[str, Any], ctx: _TomlContext, root: Path | None
                     events=events, root=root, description=description)
 
 
-def _parse_sensors(ctx: _TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor]:
+def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor]:
     if "sensors" not in doc:
         ctx.fail(("sensors",), "required table is missing (one [sensors.<name>] per sensor)")
     table = doc["sensors"]
@@ -488,7 +288,7 @@ def _parse_sensors(ctx: _TomlContext, doc: Mapping[str, Any]) -> dict[str, Senso
     return sensors
 
 
-def _parse_events(ctx: _TomlContext, doc: Mapping[str, Any], sensors: Mapping[str, Sensor],
+def _parse_events(ctx: TomlContext, doc: Mapping[str, Any], sensors: Mapping[str, Sensor],
                   wob_default: float | None) -> list[Event]:
     if "events" not in doc:
         ctx.fail(("events",), "required array is missing (one [[events]] table per event)")
@@ -539,7 +339,7 @@ def _parse_events(ctx: _TomlContext, doc: Mapping[str, Any], sensors: Mapping[st
     return events
 
 
-def _parse_features(ctx: _TomlContext, spec: Mapping[str, Any], path: tuple[str | int, ...],
+def _parse_features(ctx: TomlContext, spec: Mapping[str, Any], path: tuple[str | int, ...],
                     sensors: Mapping[str, Sensor], label: str) -> dict[str, float]:
     if "features" not in spec:
         return {}
@@ -561,7 +361,7 @@ def _parse_features(ctx: _TomlContext, spec: Mapping[str, Any], path: tuple[str 
     return features
 
 
-def _parse_reference(ctx: _TomlContext, spec: Mapping[str, Any], path: tuple[str | int, ...],
+def _parse_reference(ctx: TomlContext, spec: Mapping[str, Any], path: tuple[str | int, ...],
                      label: str) -> dict[str, Any]:
     if "reference" not in spec:
         return {}
@@ -579,7 +379,7 @@ def _parse_reference(ctx: _TomlContext, spec: Mapping[str, Any], path: tuple[str
 # Event CSVs
 
 
-def _time_problem(t: np.ndarray, rate_hz: float) -> tuple[int, str] | None:
+def time_problem(t: np.ndarray, rate_hz: float) -> tuple[int, str] | None:
     """First sample index whose time breaks monotonicity or the uniform grid, with the reason.
 
     The grid is anchored at the first sample: sample i must sit within
@@ -709,7 +509,7 @@ def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
                             f"needed to check the sampling rate, found {values.shape[0]}")
 
     rate = next(iter(sensors.values())).rate_hz
-    problem = _time_problem(values[:, 0], rate)
+    problem = time_problem(values[:, 0], rate)
     if problem is not None:
         raise CampaignError(f"{where}, line {problem[0] + 2}: {problem[1]}")
 
@@ -778,8 +578,8 @@ def load_campaign(path: str | Path) -> Campaign:
     except RecursionError:
         raise CampaignError(f"{toml_path}: TOML syntax error: nesting too deep") from None
 
-    ctx = _TomlContext(toml_path, text)
-    campaign = _parse_document(doc, ctx, root)
+    ctx = TomlContext(toml_path, text)
+    campaign = parse_document(doc, ctx, root)
     for i, event in enumerate(campaign.events):
         if event.file is None:
             continue
@@ -801,244 +601,3 @@ def load_campaign(path: str | Path) -> Campaign:
                 ClippedSamplesWarning, stacklevel=2,
             )
     return campaign
-
-
-def _toml_str(text: str) -> str:
-    out = ['"']
-    escapes = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
-               "\r": "\\r"}
-    for ch in text:
-        if ch in escapes:
-            out.append(escapes[ch])
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    out.append('"')
-    return "".join(out)
-
-
-def _toml_value(value: Any) -> str:
-    # Only the types a campaign holds; TOML spells bool lowercase and float specials bare.
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return _toml_str(value)
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
-        return f"{{ {items} }}" if items else "{}"
-    raise CampaignError(f"cannot write a {type(value).__name__} value to TOML: {value!r}")
-
-
-def _toml_key(key: str) -> str:
-    return key if _BARE_KEY_RE.fullmatch(key) else _toml_str(key)
-
-
-def _as_number(value: Any) -> int | float:
-    # numpy scalars would otherwise reach the writer as unknown types.
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
-def _campaign_document(campaign: Campaign, tool: str,
-                       files: Mapping[str, str]) -> tuple[dict[str, Any], str]:
-    """The campaign as a TOML-shaped dict (for validation) and as TOML text."""
-    doc: dict[str, Any] = {"name": campaign.name, "tool": tool, "bit": campaign.bit}
-    if campaign.wob_klbf is not None:
-        doc["wob_klbf"] = float(_as_number(campaign.wob_klbf))
-    if campaign.description:
-        doc["description"] = campaign.description
-    doc["sensors"] = {}
-    for key, s in campaign.sensors.items():
-        spec: dict[str, Any] = {"dof": int(_as_number(s.dof)),
-                                "rate_hz": _as_number(s.rate_hz),
-                                "range_g": _as_number(s.range_g)}
-        if s.lowpass_hz is not None:
-            spec["lowpass_hz"] = _as_number(s.lowpass_hz)
-        doc["sensors"][key] = spec
-    doc["events"] = []
-    for ev in campaign.events:
-        spec = {"id": ev.id, "flow_gpm": float(_as_number(ev.flow_gpm))}
-        if campaign.wob_klbf is None or ev.wob_klbf != campaign.wob_klbf:
-            spec["wob_klbf"] = float(_as_number(ev.wob_klbf))
-        if ev.id in files:
-            spec["file"] = files[ev.id]
-        if ev.features:
-            spec["features"] = {k: float(_as_number(v)) for k, v in ev.features.items()}
-        if ev.reference:
-            spec["reference"] = {k: _as_number(v) for k, v in ev.reference.items()}
-        doc["events"].append(spec)
-
-    lines = ["# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."]
-    for key in ("name", "tool", "bit", "wob_klbf", "description"):
-        if key in doc:
-            lines.append(f"{key} = {_toml_value(doc[key])}")
-    for key, spec in doc["sensors"].items():
-        lines += ["", f"[sensors.{_toml_key(key)}]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
-    for spec in doc["events"]:
-        lines += ["", "[[events]]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
-    return doc, "\n".join(lines) + "\n"
-
-
-def _safe_relative(name: str) -> bool:
-    p = Path(name)
-    return not p.is_absolute() and ".." not in p.parts and bool(p.parts)
-
-
-def _event_values(data: pd.DataFrame, sensors: Mapping[str, Sensor], label: str) -> np.ndarray:
-    """Check an event's samples as load_campaign would; return them in file column order."""
-    columns = ["time_s"] + [s.column for s in sensors.values()]
-    extra = [c for c in data.columns if c not in columns]
-    missing = [c for c in columns if c not in data.columns]
-    if extra or missing:
-        raise CampaignError(f"event{label}: data columns must be {', '.join(columns)}"
-                            f"{'; unexpected ' + ', '.join(map(str, extra)) if extra else ''}"
-                            f"{'; missing ' + ', '.join(missing) if missing else ''}")
-    values = data[columns].to_numpy(dtype=np.float64)
-    if values.shape[0] < 2:
-        raise CampaignError(f"event{label}: data needs at least 2 samples")
-    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
-    if bad.size:
-        raise CampaignError(f"event{label}: data row {int(bad[0])} holds NaN or infinity")
-    problem = _time_problem(values[:, 0], next(iter(sensors.values())).rate_hz)
-    if problem is not None:
-        raise CampaignError(f"event{label}: data row {problem[0]}: {problem[1]}")
-    return values
-
-
-def _write_event_csv(path: Path, values: np.ndarray, sensors: Mapping[str, Sensor]) -> None:
-    columns = ["time_s"] + [s.column for s in sensors.values()]
-    rate = next(iter(sensors.values())).rate_hz
-    # 7 decimals as in the format's example; more when the period needs them (> 10 kHz), so
-    # the rounding stays far inside the loader's time tolerance.
-    decimals = max(7, math.ceil(math.log10(rate)) + 3)
-    time_text = [f"{t:.{decimals}f}" for t in values[:, 0].tolist()]
-    # repr is the shortest string that reads back to the same float64: exact round trip.
-    cols = [time_text] + [list(map(repr, values[:, j].tolist()))
-                          for j in range(1, values.shape[1])]
-    body = "\n".join(map(",".join, zip(*cols, strict=True)))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(",".join(columns) + "\n" + body + "\n", encoding="utf-8", newline="\n")
-
-
-def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
-    """Write a campaign folder that :func:`load_campaign` reads back equal.
-
-    Parameters
-    ----------
-    campaign : Campaign
-        The campaign. Events with ``data`` get a CSV named by ``Event.file`` (or
-        ``<id>.csv`` when it has none or it points outside the folder).
-    folder : str or pathlib.Path
-        Destination, created if needed; existing files of the same names are overwritten.
-
-    Returns
-    -------
-    pathlib.Path
-        ``folder``, ready for :func:`load_campaign`.
-
-    Raises
-    ------
-    CampaignError
-        If the campaign would not load back: any rule of the format broken (checked before
-        anything is written), an event with ``file`` but no ``data``, two events writing the
-        same file.
-
-    Notes
-    -----
-    Accelerations are written exactly (shortest float64 repr); ``time_s`` with 7 decimals
-    (see the module docstring). A tool given as a preset file relative to ``campaign.root`` is
-    copied next to the new ``campaign.toml``; one outside it is referenced by absolute path.
-    """
-    folder = Path(folder)
-    for key, sensor in campaign.sensors.items():
-        if sensor.name != key:
-            raise CampaignError(f"sensors[{key!r}]: Sensor.name is {sensor.name!r}, "
-                                f"it must equal its key")
-
-    tool = campaign.tool
-    tool_source: Path | None = None
-    if tool not in KNOWN_TOOLS:
-        base = campaign.root if campaign.root is not None else Path.cwd()
-        tool_source = _tool_file(base, tool)
-        if tool_source is None:
-            raise CampaignError(f"tool {tool!r}: neither a known preset "
-                                f"({', '.join(KNOWN_TOOLS)}) nor an existing file {base / tool}")
-        if not _safe_relative(tool):
-            tool, tool_source = str(tool_source.resolve()), None
-
-    files: dict[str, str] = {}
-    owners: dict[str, str] = {}
-    for ev in campaign.events:
-        if ev.data is None:
-            if ev.file is not None:
-                raise CampaignError(f"event {ev.id!r}: file {ev.file!r} is set but data is "
-                                    f"None; nothing to write")
-            continue
-        name = ev.file if ev.file is not None and _safe_relative(ev.file) else (
-            re.sub(r"[^A-Za-z0-9._-]", "_", ev.id) + ".csv")
-        if name in owners:
-            raise CampaignError(f"events {owners[name]!r} and {ev.id!r} would both be written "
-                                f"to {name}")
-        owners[name] = ev.id
-        files[ev.id] = name
-
-    doc, text = _campaign_document(campaign, tool, files)
-    # Same validator as load_campaign, so nothing is written that would not load back.
-    _parse_document(doc, _TomlContext(f"campaign {campaign.name!r}", None), None)
-
-    # All samples are checked before the first byte is written: no half-written folder.
-    for ev in campaign.events:
-        if ev.id in files:
-            _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
-
-    folder.mkdir(parents=True, exist_ok=True)
-    for ev in campaign.events:
-        if ev.id in files:
-            values = _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
-            _write_event_csv(folder / files[ev.id], values, campaign.sensors)
-    if tool_source is not None:
-        dest = folder / tool
-        if not (dest.exists() and dest.resolve() == tool_source.resolve()):
-            dest.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(tool_source, dest)
-    (folder / CAMPAIGN_FILE).write_text(text, encoding="utf-8", newline="\n")
-    return folder
-
-
-#: Keys of :func:`thesis_campaigns`, in the dissertation's order.
-THESIS_CAMPAIGNS: tuple[str, ...] = ("7in-cde", "7in-rc", "9.5in-pdc")
-
-
-def _package_data() -> Path:
-    return Path(__file__).resolve().parent / "data"
-
-
-def thesis_campaigns() -> dict[str, Campaign]:
-    """The dissertation's published field table as three summary-only campaigns.
-
-    Each event carries ``features`` ``x1_peak_mean_g`` and, where the field table reports it,
-    ``x1_impact_hz``; ``reference`` keeps the dissertation's own simulation of the event
-    (``sim_peak_g``, ``sim_impact_hz`` when reported, ``sim_behaviour``), the behaviour seen in
-    the field (``field_behaviour``), the printed excitation frequency (``f_exc_hz``), the test
-    id (``test``) and, where the printed table is odd, a ``note``.
-
-    Returns
-    -------
-    dict of str to Campaign
-        Keys ``"7in-cde"`` (10 events), ``"7in-rc"`` (6), ``"9.5in-pdc"`` (12); a fresh copy
-        on every call. Sensors: ``x1`` (dof 1) and ``x5`` (dof 5), 1024 Hz, 250 g.
-    """
-    base = _package_data() / "campaigns"
-    return {key: load_campaign(base / key) for key in THESIS_CAMPAIGNS}

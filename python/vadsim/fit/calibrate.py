@@ -28,11 +28,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vadsim.features import Feature
-from vadsim.presets import Preset, make_params
-from vadsim.recordings import Campaign
-from vadsim.simulate import SolverError, simulate
-from vadsim.validate import (
+from vadsim.fit.validate import (
     EventSimulation,
     campaign_preset,
     event_residuals,
@@ -40,6 +36,10 @@ from vadsim.validate import (
     recorded_features,
     simulate_event,
 )
+from vadsim.model.presets import Preset, make_params
+from vadsim.model.simulate import SolverError, simulate
+from vadsim.campaigns import Campaign
+from vadsim.signals.features import Feature
 
 __all__ = ["CalibrationResult", "DEFAULT_BOUNDS", "calibrate", "calibration_cost",
            "thesis_targets"]
@@ -85,7 +85,7 @@ def thesis_targets(campaign: Campaign) -> dict[str, dict[str, Feature]]:
 def _regime_targets(flow_gpm: float) -> dict[str, Feature]:
     """Z targets from the 7in regime boundaries (regimes_7in.csv, dissertation 4.1): a surface
     "regular" there has Z = 1, "none" Z = 0 (spread 0.05); intermittent gives no target."""
-    from vadsim.thesis import published_regimes
+    from vadsim.studies.thesis import published_regimes
 
     out: dict[str, Feature] = {}
     for _, row in published_regimes().iterrows():

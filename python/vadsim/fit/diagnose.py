@@ -32,7 +32,6 @@ misses ("hydraulics at high flow"). A diagnosis here does it with numbers:
 
 from __future__ import annotations
 
-import json
 import math
 import multiprocessing as mp
 import os
@@ -40,20 +39,15 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 from scipy import optimize
 
-from vadsim.candidates import CANDIDATES, Candidate, keys_for
-from vadsim.features import Feature
-from vadsim.locate import Mismatch, locate
-from vadsim.presets import Preset
-from vadsim.recordings import Campaign
-from vadsim.simulate import SimulationResult, SolverError
-from vadsim.validate import (
+from vadsim.fit.candidates import CANDIDATES, Candidate, keys_for
+from vadsim.fit.locate import Mismatch, locate
+from vadsim.fit.validate import (
     campaign_preset,
     event_residuals,
     load_any_campaign,
@@ -61,8 +55,12 @@ from vadsim.validate import (
     recorded_features,
     run_event,
 )
+from vadsim.model.presets import Preset
+from vadsim.model.simulate import SimulationResult, SolverError
+from vadsim.campaigns import Campaign
+from vadsim.signals.features import Feature
 
-__all__ = ["CandidateFit", "Diagnosis", "diagnose", "predict", "write_diagnosis_report"]
+__all__ = ["CandidateFit", "Diagnosis", "diagnose", "fmt_value", "make_folds", "predict"]
 
 FAILED_RESIDUAL = 10.0
 """Residual of every feature of an event whose run fails or loses a compared feature."""
@@ -261,7 +259,7 @@ class Diagnosis:
         lines.append(f"{'candidate':26s} {'k':>2s} {'held-out RMS (LOFO/block)':>26s} "
                      f"{'score':>9s}  parameters")
         for f in [self.baseline, *self.ranking]:
-            par = ", ".join(f"{k}={_fmt(v)}" for k, v in f.parameters.items())
+            par = ", ".join(f"{k}={fmt_value(v)}" for k, v in f.parameters.items())
             lines.append(f"{f.key:26s} {f.k:2d} {f.heldout_rms:6.3f} ({f.heldout_rms_lofo:.2f}/"
                          f"{f.heldout_rms_block:.2f}) {f.score:9.1f}  {par}")
         if self.chosen is None:
@@ -270,7 +268,7 @@ class Diagnosis:
         else:
             c = self.chosen
             par = ", ".join(
-                f"{k} = {_fmt(v)}" + (f" [{_fmt(c.interval[k][0])}, {_fmt(c.interval[k][1])}]"
+                f"{k} = {fmt_value(v)}" + (f" [{fmt_value(c.interval[k][0])}, {fmt_value(c.interval[k][1])}]"
                                       if k in c.interval else "")
                 for k, v in c.parameters.items())
             lines.append(f"missing physics: {c.id} ({par}); held-out RMS "
@@ -286,7 +284,7 @@ class Diagnosis:
         return "\n".join(lines)
 
 
-def _fmt(v: Any) -> str:
+def fmt_value(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.4g}"
     return str(v)
@@ -681,153 +679,10 @@ def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
         ev.close()
 
 
-# ------------------------------------------------------------------------------------ report
+def __getattr__(name: str) -> Any:
+    # vadsim 0.1 kept the report writer here; it now lives in vadsim.report
+    if name == "write_diagnosis_report":
+        from vadsim.report.diagnosis import write_diagnosis_report
 
-def _feature_figures(diag: Diagnosis, folder: Path, n_features: int = 6) -> list[str]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    eids = [e.id for e in diag.campaign.events]
-    flows = np.array([e.flow_gpm for e in diag.campaign.events])
-    order = np.argsort(flows)
-    # features with the largest held-out error of the base model
-    err: dict[str, float] = {}
-    for e in eids:
-        for k, z in diag.baseline.heldout.get(e, {}).items():
-            err[k] = err.get(k, 0.0) + z * z
-    top = sorted(err, key=lambda k: -err[k])[:n_features]
-    if not top:
-        return []
-    ncol = min(3, len(top))
-    nrow = math.ceil(len(top) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
-    after = diag.chosen
-    for ax, key in zip(axes.flat, top, strict=False):
-        rec = np.array([diag.recorded[e].get(key, Feature(math.nan, math.nan, 0)).value
-                        for e in eids])
-        spr = np.array([diag.recorded[e].get(key, Feature(math.nan, math.nan, 0)).spread
-                        for e in eids])
-        before = np.array([diag.baseline.heldout_sim.get(e, {}).get(key, math.nan)
-                           for e in eids])
-        ax.errorbar(flows[order], rec[order], yerr=spr[order], fmt="s", color="black",
-                    capsize=3, label="recorded")
-        ax.plot(flows[order], before[order], "o--", color="tab:red", label="base model")
-        if after is not None:
-            aft = np.array([after.heldout_sim.get(e, {}).get(key, math.nan) for e in eids])
-            ax.plot(flows[order], aft[order], "^-", color="tab:blue",
-                    label=f"+ {after.key} (held out)")
-        ax.set_title(key, fontsize=9)
-        ax.set_xlabel("flow (gal/min)")
-    for ax in list(axes.flat)[len(top):]:
-        ax.set_visible(False)
-    axes.flat[0].legend(fontsize=7)
-    fig.suptitle("Held-out predictions (leave one flow out), features with the largest "
-                 "base-model error", fontsize=10)
-    fig.tight_layout()
-    path = folder / "heldout_features.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return [path.name]
-
-
-def _heatmap(diag: Diagnosis, folder: Path) -> list[str]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from vadsim.plots import mismatch_heatmap
-
-    eids = [e.id for e in diag.campaign.events]
-    table = pd.DataFrame({e: diag.baseline.heldout.get(e, {}) for e in eids}).T.reindex(eids)
-    table.index = [f"{e} ({diag.campaign.events[i].flow_gpm:g})" for i, e in enumerate(eids)]
-    fig = mismatch_heatmap(table, title="Base model: (model - recorded) / spread")
-    path = folder / "mismatch_base.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return [path.name]
-
-
-def write_diagnosis_report(diag: Diagnosis, folder: str | os.PathLike[str],
-                           fmt: str = "md") -> Path:
-    """Write ``diagnosis.md`` (or ``.html``), ``diagnosis.json`` and figures into ``folder``."""
-    if fmt not in ("md", "html"):
-        raise ValueError(f"fmt = {fmt!r} must be 'md' or 'html'")
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
-    figs = _heatmap(diag, out) + _feature_figures(diag, out)
-    js = diag.as_json()
-    (out / "diagnosis.json").write_text(json.dumps(js, indent=2))
-    b = diag.baseline
-    lines = [f"# Diagnosis of {diag.campaign.name}", "",
-             f"Base model: preset `{diag.preset.name}`"
-             + (f" with {diag.settings['overrides']}" if diag.settings["overrides"] else "")
-             + f"; {len(diag.campaign.events)} events; {diag.n_evals} evaluations in "
-             f"{diag.elapsed_s:.0f} s.", "",
-             "## Where the model and the recordings disagree", ""]
-    if diag.located:
-        lines += [f"- {m.describe()}" for m in diag.located]
-    else:
-        lines.append("- No feature is offset or trends with flow beyond the threshold "
-                     "(95 % intervals and a minimum effect of 1.5 spreads).")
-    for le in diag.located_events:
-        worst = ", ".join(f"{k} {v:+.1f}" for k, v in le["worst"].items())
-        lines.append(f"- Event {le['event']} ({le['flow_gpm']:g} gal/min): RMS z "
-                     f"{le['rms_z']:.1f} ({worst})")
-    lines += ["", "## Candidates, ranked on held-out events", "",
-              "Held-out RMS: standardised residuals of events left out of the fit "
-              "(leave-one-flow-out and a high-flow block), pooled. Score: AICc on those "
-              "held-out residuals (lower is better). Thresholds: score "
-              f"{diag.settings['min_delta']:g} below `none` and held-out RMS "
-              f"{100 * diag.settings['min_reduction']:.0f} % "
-              "below `none`.", "",
-              "| candidate | k | parameters | held-out RMS (LOFO / block) | score "
-              "| delta vs none |",
-              "|---|---|---|---|---|---|"]
-    for f in [b, *diag.ranking]:
-        par = ", ".join(f"{k} = {_fmt(v)}" for k, v in f.parameters.items()) or "-"
-        lines.append(f"| {f.key} | {f.k} | {par} | {f.heldout_rms:.3f} "
-                     f"({f.heldout_rms_lofo:.3f} / {f.heldout_rms_block:.3f}) | "
-                     f"{f.score:.1f} | {f.score - b.score:+.1f} |")
-    lines += ["", "## Verdict", ""]
-    if diag.chosen is None:
-        lines.append("**Missing physics: none.** No candidate improves the held-out "
-                     "prediction enough to be worth its parameters.")
-    else:
-        c = diag.chosen
-        cand = CANDIDATES[c.key]
-        lines.append(f"**Missing physics: `{c.id}`** — {cand.signature}")
-        lines.append("")
-        for p in cand.params:
-            lo, hi = c.interval.get(p.name, (math.nan, math.nan))
-            lines.append(f"- {p.name} = {_fmt(c.values[p.name])} {p.unit} "
-                         f"(95 % profile interval {_fmt(lo)} to {_fmt(hi)})")
-        for k, v in cand.fixed.items():
-            lines.append(f"- {k} = {v}")
-        lines.append(f"- held-out RMS {b.heldout_rms:.3f} -> {c.heldout_rms:.3f} "
-                     f"({100 * (1 - c.heldout_rms / b.heldout_rms):.0f} % lower)")
-    if diag.prediction:
-        p = diag.prediction
-        lines += ["", f"## Prediction of {p['campaign']} (nothing refitted)", "",
-                  f"RMS standardised residual: base {p['error_before']:.3f}, with "
-                  f"`{p['physics']}` {p['error_after']:.3f}.", "",
-                  "| event | flow | RMS base | RMS with physics |", "|---|---|---|---|"]
-        for e, row in p["events"].items():
-            lines.append(f"| {e} | {row['flow_gpm']:g} | {row['rms_before']:.2f} | "
-                         f"{row.get('rms_after', row['rms_before']):.2f} |")
-        if "best_ranked" in p:
-            b = p["best_ranked"]
-            par = ", ".join(f"{k} = {_fmt(v)}" for k, v in b["parameters"].items())
-            lines += ["", f"The best-ranked candidate, `{b['key']}` ({par}), was not chosen; "
-                      f"it would predict with RMS {b['error']:.3f} (evidence, not a verdict)."]
-    lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figs]
-    lines += ["", "Machine-readable: `diagnosis.json`."]
-    md = "\n".join(lines) + "\n"
-    if fmt == "md":
-        path = out / "diagnosis.md"
-        path.write_text(md)
-        return path
-    from vadsim.validate import _md_to_html
-    path = out / "diagnosis.html"
-    path.write_text(_md_to_html(md, f"Diagnosis of {diag.campaign.name}"))
-    return path
+        return write_diagnosis_report
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

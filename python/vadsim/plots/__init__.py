@@ -25,12 +25,10 @@ Conventions
 from __future__ import annotations
 
 import functools
-import io
 import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
-from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ParamSpec
 
@@ -46,13 +44,17 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from vadsim.labels import regime_name
+from vadsim.data import field_events
+from vadsim.signals.labels import regime_name
 
 if TYPE_CHECKING:
-    from vadsim.simulate import SimulationResult
+    from vadsim.model.simulate import SimulationResult
 
 __all__ = [
     "OPERATING_FRACTION",
+    "heldout_features",
+    "mismatch_base",
+    "validation_peaks",
     "REGIME_COLORS",
     "SURFACE_COLORS",
     "SURFACE_LABELS",
@@ -358,7 +360,7 @@ def _param_axis(ds: xr.Dataset, name: str) -> tuple[float, str]:
         meaning, unit = _DERIVED_AXES[name]
         return 1.0, f"{meaning}, {name} ({unit})"
     try:
-        from vadsim.presets import param_table
+        from vadsim.model.presets import param_table
 
         table = {row[0]: (row[1], row[2]) for row in param_table()}
     except ImportError:  # pragma: no cover - the core is always built with the package
@@ -463,11 +465,6 @@ def _operating_overlay(ax: Axes, x: np.ndarray, y: np.ndarray, j: np.ndarray, co
     ]
 
 
-def _thesis_events() -> pd.DataFrame:
-    text = resources.files("vadsim").joinpath("data/thesis/field_events.csv").read_text()
-    return pd.read_csv(io.StringIO(text))
-
-
 def _reference_series(
     reference: str | pd.DataFrame, sensor: str, func: str
 ) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray | None, dict[str, Any]]]:
@@ -482,7 +479,7 @@ def _reference_series(
             raise ValueError(f"{func}: the dissertation's field table reports peaks at x1 only, "
                              f"not {sensor}")
         tool, bit = THESIS_REFERENCES[reference]
-        table = _thesis_events()
+        table = field_events()
         table = table[(table["tool"] == tool) & (table["bit"] == bit)]
         names = [("field_peak_g", "field (dissertation)", field_style),
                  ("sim_peak_g", "simulated (dissertation)", sim_style)]
@@ -1240,3 +1237,7 @@ def mismatch_heatmap(
                 ax.text(k, i, text, ha="center", va="center", fontsize=size, color=color)
     ax.set_title(title)
     return _finish(fig, out)
+
+
+# Figures of campaigns, validations and diagnoses (imported last: they use the above).
+from vadsim.plots.campaigns import heldout_features, mismatch_base, validation_peaks  # noqa: E402

@@ -17,19 +17,18 @@ Metrics of one flow sweep (see :func:`design_metrics`):
 
 from __future__ import annotations
 
-import csv
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from importlib import resources
 from typing import Any
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from vadsim.sweep import flows_from_hz, sweep
+from vadsim.data import parametric_rows
+from vadsim.studies.sweep import flows_from_hz, sweep
 
 __all__ = [
     "PUBLISHED",
@@ -63,11 +62,6 @@ PUBLISHED: dict[str, float] = {
 """The numbers of parametric.csv's findings, as ratios (the csv states them in prose)."""
 
 
-def _parametric_rows() -> dict[str, dict[str, str]]:
-    text = resources.files("vadsim").joinpath("data/thesis/parametric.csv").read_text()
-    return {row["study"]: row for row in csv.DictReader(text.splitlines())}
-
-
 @dataclass(frozen=True)
 class Study:
     """One of the dissertation's one-at-a-time studies."""
@@ -86,7 +80,7 @@ class Study:
 
 
 def _studies() -> dict[str, Study]:
-    rows = _parametric_rows()
+    rows = parametric_rows()
     scale = {"kS": 1000.0, "gap_ratio": 1.0, "Fo": 1.0}  # kN/(kg m) -> N/m/kg
     out = {}
     for name in ("spring", "gap", "force"):
@@ -102,7 +96,7 @@ STUDIES: dict[str, Study] = _studies()
 
 def thesis_flows(preset: str = "7in-cde", hz_step: float = 0.5) -> np.ndarray:
     """The dissertation's map flow axis: 21.3 to 69.3 Hz in ``hz_step`` steps, in gal/min."""
-    rows = _parametric_rows()
+    rows = parametric_rows()
     lo, hi = float(rows["maps"]["from"]), float(rows["maps"]["to"])
     return flows_from_hz(preset, np.arange(lo, hi + 1e-9, hz_step))
 

@@ -1,0 +1,225 @@
+"""Writing a campaign in the RECORDINGS.md format (round-trips through
+:func:`~vadsim.campaigns.reading.load_campaign`)."""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vadsim.campaigns.format import (
+    BARE_KEY_RE,
+    CAMPAIGN_FILE,
+    KNOWN_TOOLS,
+    Campaign,
+    CampaignError,
+    Sensor,
+    toml_str,
+)
+from vadsim.campaigns.reading import TomlContext, parse_document, time_problem, tool_file
+
+__all__ = ["save_campaign"]
+
+def _toml_value(value: Any) -> str:
+    # Only the types a campaign holds; TOML spells bool lowercase and float specials bare.
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return toml_str(value)
+    if isinstance(value, Mapping):
+        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
+        return f"{{ {items} }}" if items else "{}"
+    raise CampaignError(f"cannot write a {type(value).__name__} value to TOML: {value!r}")
+
+
+def _toml_key(key: str) -> str:
+    return key if BARE_KEY_RE.fullmatch(key) else toml_str(key)
+
+
+def _as_number(value: Any) -> int | float:
+    # numpy scalars would otherwise reach the writer as unknown types.
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _campaign_document(campaign: Campaign, tool: str,
+                       files: Mapping[str, str]) -> tuple[dict[str, Any], str]:
+    """The campaign as a TOML-shaped dict (for validation) and as TOML text."""
+    doc: dict[str, Any] = {"name": campaign.name, "tool": tool, "bit": campaign.bit}
+    if campaign.wob_klbf is not None:
+        doc["wob_klbf"] = float(_as_number(campaign.wob_klbf))
+    if campaign.description:
+        doc["description"] = campaign.description
+    doc["sensors"] = {}
+    for key, s in campaign.sensors.items():
+        spec: dict[str, Any] = {"dof": int(_as_number(s.dof)),
+                                "rate_hz": _as_number(s.rate_hz),
+                                "range_g": _as_number(s.range_g)}
+        if s.lowpass_hz is not None:
+            spec["lowpass_hz"] = _as_number(s.lowpass_hz)
+        doc["sensors"][key] = spec
+    doc["events"] = []
+    for ev in campaign.events:
+        spec = {"id": ev.id, "flow_gpm": float(_as_number(ev.flow_gpm))}
+        if campaign.wob_klbf is None or ev.wob_klbf != campaign.wob_klbf:
+            spec["wob_klbf"] = float(_as_number(ev.wob_klbf))
+        if ev.id in files:
+            spec["file"] = files[ev.id]
+        if ev.features:
+            spec["features"] = {k: float(_as_number(v)) for k, v in ev.features.items()}
+        if ev.reference:
+            spec["reference"] = {k: _as_number(v) for k, v in ev.reference.items()}
+        doc["events"].append(spec)
+
+    lines = ["# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."]
+    for key in ("name", "tool", "bit", "wob_klbf", "description"):
+        if key in doc:
+            lines.append(f"{key} = {_toml_value(doc[key])}")
+    for key, spec in doc["sensors"].items():
+        lines += ["", f"[sensors.{_toml_key(key)}]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
+    for spec in doc["events"]:
+        lines += ["", "[[events]]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
+    return doc, "\n".join(lines) + "\n"
+
+
+def _safe_relative(name: str) -> bool:
+    p = Path(name)
+    return not p.is_absolute() and ".." not in p.parts and bool(p.parts)
+
+
+def _event_values(data: pd.DataFrame, sensors: Mapping[str, Sensor], label: str) -> np.ndarray:
+    """Check an event's samples as load_campaign would; return them in file column order."""
+    columns = ["time_s"] + [s.column for s in sensors.values()]
+    extra = [c for c in data.columns if c not in columns]
+    missing = [c for c in columns if c not in data.columns]
+    if extra or missing:
+        raise CampaignError(f"event{label}: data columns must be {', '.join(columns)}"
+                            f"{'; unexpected ' + ', '.join(map(str, extra)) if extra else ''}"
+                            f"{'; missing ' + ', '.join(missing) if missing else ''}")
+    values = data[columns].to_numpy(dtype=np.float64)
+    if values.shape[0] < 2:
+        raise CampaignError(f"event{label}: data needs at least 2 samples")
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        raise CampaignError(f"event{label}: data row {int(bad[0])} holds NaN or infinity")
+    problem = time_problem(values[:, 0], next(iter(sensors.values())).rate_hz)
+    if problem is not None:
+        raise CampaignError(f"event{label}: data row {problem[0]}: {problem[1]}")
+    return values
+
+
+def _write_event_csv(path: Path, values: np.ndarray, sensors: Mapping[str, Sensor]) -> None:
+    columns = ["time_s"] + [s.column for s in sensors.values()]
+    rate = next(iter(sensors.values())).rate_hz
+    # 7 decimals as in the format's example; more when the period needs them (> 10 kHz), so
+    # the rounding stays far inside the loader's time tolerance.
+    decimals = max(7, math.ceil(math.log10(rate)) + 3)
+    time_text = [f"{t:.{decimals}f}" for t in values[:, 0].tolist()]
+    # repr is the shortest string that reads back to the same float64: exact round trip.
+    cols = [time_text] + [list(map(repr, values[:, j].tolist()))
+                          for j in range(1, values.shape[1])]
+    body = "\n".join(map(",".join, zip(*cols, strict=True)))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(",".join(columns) + "\n" + body + "\n", encoding="utf-8", newline="\n")
+
+
+def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
+    """Write a campaign folder that :func:`load_campaign` reads back equal.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign. Events with ``data`` get a CSV named by ``Event.file`` (or
+        ``<id>.csv`` when it has none or it points outside the folder).
+    folder : str or pathlib.Path
+        Destination, created if needed; existing files of the same names are overwritten.
+
+    Returns
+    -------
+    pathlib.Path
+        ``folder``, ready for :func:`load_campaign`.
+
+    Raises
+    ------
+    CampaignError
+        If the campaign would not load back: any rule of the format broken (checked before
+        anything is written), an event with ``file`` but no ``data``, two events writing the
+        same file.
+
+    Notes
+    -----
+    Accelerations are written exactly (shortest float64 repr); ``time_s`` with 7 decimals
+    (see the module docstring). A tool given as a preset file relative to ``campaign.root`` is
+    copied next to the new ``campaign.toml``; one outside it is referenced by absolute path.
+    """
+    folder = Path(folder)
+    for key, sensor in campaign.sensors.items():
+        if sensor.name != key:
+            raise CampaignError(f"sensors[{key!r}]: Sensor.name is {sensor.name!r}, "
+                                f"it must equal its key")
+
+    tool = campaign.tool
+    tool_source: Path | None = None
+    if tool not in KNOWN_TOOLS:
+        base = campaign.root if campaign.root is not None else Path.cwd()
+        tool_source = tool_file(base, tool)
+        if tool_source is None:
+            raise CampaignError(f"tool {tool!r}: neither a known preset "
+                                f"({', '.join(KNOWN_TOOLS)}) nor an existing file {base / tool}")
+        if not _safe_relative(tool):
+            tool, tool_source = str(tool_source.resolve()), None
+
+    files: dict[str, str] = {}
+    owners: dict[str, str] = {}
+    for ev in campaign.events:
+        if ev.data is None:
+            if ev.file is not None:
+                raise CampaignError(f"event {ev.id!r}: file {ev.file!r} is set but data is "
+                                    f"None; nothing to write")
+            continue
+        name = ev.file if ev.file is not None and _safe_relative(ev.file) else (
+            re.sub(r"[^A-Za-z0-9._-]", "_", ev.id) + ".csv")
+        if name in owners:
+            raise CampaignError(f"events {owners[name]!r} and {ev.id!r} would both be written "
+                                f"to {name}")
+        owners[name] = ev.id
+        files[ev.id] = name
+
+    doc, text = _campaign_document(campaign, tool, files)
+    # Same validator as load_campaign, so nothing is written that would not load back.
+    parse_document(doc, TomlContext(f"campaign {campaign.name!r}", None), None)
+
+    # All samples are checked before the first byte is written: no half-written folder.
+    for ev in campaign.events:
+        if ev.id in files:
+            _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for ev in campaign.events:
+        if ev.id in files:
+            values = _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+            _write_event_csv(folder / files[ev.id], values, campaign.sensors)
+    if tool_source is not None:
+        dest = folder / tool
+        if not (dest.exists() and dest.resolve() == tool_source.resolve()):
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(tool_source, dest)
+    (folder / CAMPAIGN_FILE).write_text(text, encoding="utf-8", newline="\n")
+    return folder
