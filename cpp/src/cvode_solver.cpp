@@ -5,8 +5,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <sstream>
-
 namespace vadsim {
 
 namespace {
@@ -216,17 +214,6 @@ SUNLinearSolver make_fixed_lu(SUNContext ctx) {
 }
 
 }  // namespace
-
-SolverError::SolverError(const std::string& call, double t, int flag, const std::string& why)
-    : std::runtime_error([&] {
-        std::ostringstream os;
-        os << call << " failed at t = " << t << " s";
-        if (flag != 0) os << " (flag " << flag << ")";
-        if (!why.empty()) os << ": " << why;
-        return os.str();
-      }()),
-      t_(t),
-      flag_(flag) {}
 
 void CvodeSolver::error_handler(int, const char* module, const char* function, char* msg,
                                 void* data) {

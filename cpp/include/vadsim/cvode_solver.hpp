@@ -9,9 +9,12 @@
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
+#include <Eigen/Dense>
 #include <string>
 
-#include "vadsim/integrator.hpp"
+#include "vadsim/errors.hpp"
+#include "vadsim/results.hpp"
+#include "vadsim/run_options.hpp"
 
 namespace vadsim {
 
