@@ -122,10 +122,10 @@ RunResult simulate(const Model& model, const RunOptions& opts) {
   }
   for (int s = 0; s < kSurfaces; ++s) w.modes[s] = model.mode_at(s, y0, 0.0, opts.flow_gpm, w.modes);
 
-  Eigen::VectorXd atol(kState);
+  State atol;
   atol.head<kDof>().setConstant(opts.atol);
   atol.tail<kDof>().setConstant(opts.atol * 1e3);
-  CvodeSolver solver(kState, w.n_roots, opts.method, opts.rtol, atol, &w, rhs_cb, jac_cb,
+  CvodeSolver solver(w.n_roots, opts.method, opts.rtol, atol, &w, rhs_cb, jac_cb,
                      root_cb);
   if (opts.max_step > 0) solver.set_max_step(opts.max_step);
 
