@@ -154,7 +154,7 @@ void Model::evaluate(double t, double flow_gpm, const Eigen::Ref<const State>& y
   double ddrag;
   out.f[1] += out.fh - exc_.drag(v[1], ddrag);
   if (!extras_.empty()) {
-    const Vec7 uu = u, vv = v;
+    const Vec7CRef uu(u), vv(v);  // views of y, not copies
     for (const auto& e : extras_) e->add_force(t, flow_gpm, uu, vv, out.f);
   }
   out.acc = out.f.cwiseProduct(inv_mass_);
@@ -196,7 +196,7 @@ void Model::jacobian(double t, double flow_gpm, const Eigen::Ref<const State>& y
   dfdx(1, 2) -= dfh;
   dfdv(1, 1) -= ddrag;
   if (!extras_.empty()) {
-    const Vec7 uu = u, vv = v;
+    const Vec7CRef uu(u), vv(v);  // views of y, not copies
     for (const auto& e : extras_) e->add_jacobian(t, flow_gpm, uu, vv, dfdx, dfdv);
   }
   J.setZero();
