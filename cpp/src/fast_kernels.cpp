@@ -139,9 +139,11 @@ int fast_mat_copy(SUNMatrix A, SUNMatrix B) {
   return 0;
 }
 int fast_mat_scaleaddi(sunrealtype c, SUNMatrix A) {
-  Eigen::Map<Mat14> m(SM_DATA_D(A));
-  m *= c;
-  m.diagonal().array() += 1.0;
+  // A plain loop: as Eigen's m *= c, m.diagonal() += 1 element by element, but GCC otherwise
+  // split Eigen's unrolled product differently from one build to the next.
+  double* m = SM_DATA_D(A);
+  for (int i = 0; i < kState * kState; ++i) m[i] *= c;
+  for (int i = 0; i < kState; ++i) m[i * (kState + 1)] += 1.0;
   return 0;
 }
 SUNMatrix fast_mat_clone(SUNMatrix A) {

@@ -88,14 +88,6 @@ Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
   }
 }
 
-double Model::indentation(int s, const Eigen::Ref<const State>& y) const {
-  return geom_[s].at(y).d;
-}
-
-double Model::indentation_rate(int s, const Eigen::Ref<const State>& y) const {
-  return geom_[s].at(y).rate;
-}
-
 double Model::push_indicator(int s, const Eigen::Ref<const State>& y) const {
   const Indentation c = geom_[s].at(y);
   return laws_[s]->push_indicator(c.d, c.rate);

@@ -42,9 +42,12 @@ class Model {
   double x_top() const { return x_top_; }
 
   /// @brief Contact indentation d (m) and its rate d' (m/s) for a state [u; v].
+  /// Inline: the root functions and the missed-crossing guard call these ~10 times a step.
   Indentation contact(int s, const Eigen::Ref<const State>& y) const { return geom_[s].at(y); }
-  double indentation(int s, const Eigen::Ref<const State>& y) const;
-  double indentation_rate(int s, const Eigen::Ref<const State>& y) const;
+  double indentation(int s, const Eigen::Ref<const State>& y) const { return geom_[s].at(y).d; }
+  double indentation_rate(int s, const Eigen::Ref<const State>& y) const {
+    return geom_[s].at(y).rate;
+  }
   /// @brief Sign of the unclamped force of a pushes-only law (for its lift-off root).
   double push_indicator(int s, const Eigen::Ref<const State>& y) const;
   /// @brief True if the surface's law cannot pull (it has a Lifted mode).
