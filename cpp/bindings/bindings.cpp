@@ -235,6 +235,9 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "vadsim C++ core: the 7-DOF vibro-impact model integrated by CVODE";
   m.attr("N_DOF") = kDof;
   m.attr("N_SURFACES") = kSurfaces;
+#ifdef VADSIM_VERSION
+  m.attr("__version__") = VADSIM_VERSION;  // pyproject.toml's, passed in by CMake
+#endif
   bind_errors_and_enums(m);
   bind_params(m);
   bind_extra_forces(m);
