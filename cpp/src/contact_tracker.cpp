@@ -18,14 +18,6 @@ void ContactTracker::start(const State& y0) {
   for (int s = 0; s < kSurfaces; ++s) modes_[s] = model_.mode_at(s, y0, 0.0, flow_gpm_, modes_);
 }
 
-void ContactTracker::roots(const Eigen::Ref<const State>& y, double* g) const {
-  for (int s = 0; s < kSurfaces; ++s) g[s] = model_.indentation(s, y);
-  for (int s = 0; 2 * kSurfaces <= n_roots_ && s < kSurfaces; ++s) {
-    const bool live = model_.pushes_only(s) && modes_[s] != ContactMode::Open;
-    g[kSurfaces + s] = live ? model_.push_indicator(s, y) : 1.0;
-  }
-}
-
 ContactMode ContactTracker::entered_mode(int s, const State& y) const {
   return (model_.pushes_only(s) && model_.push_indicator(s, y) < 0) ? ContactMode::Lifted
                                                                     : ContactMode::Pushing;

@@ -41,8 +41,15 @@ class ContactTracker {
   int n_roots() const { return n_roots_; }
 
   /// @brief CVODE's root functions at y: the indentations, then (pushes-only laws) the sign
-  /// of the unclamped force of each overlapping surface.
-  void roots(const Eigen::Ref<const State>& y, double* g) const;
+  /// of the unclamped force of each overlapping surface. Inline: CVODE calls it more often
+  /// than the right-hand side, and it then compiles into the root callback.
+  void roots(const Eigen::Ref<const State>& y, double* g) const {
+    for (int s = 0; s < kSurfaces; ++s) g[s] = model_.indentation(s, y);
+    for (int s = 0; 2 * kSurfaces <= n_roots_ && s < kSurfaces; ++s) {
+      const bool live = model_.pushes_only(s) && modes_[s] != ContactMode::Open;
+      g[kSurfaces + s] = live ? model_.push_indicator(s, y) : 1.0;
+    }
+  }
 
   /// @brief Switch the surfaces whose roots CVODE reported at (t, y) (found as from
   /// CVodeGetRootInfo), then settle any other surface sitting on its boundary.
