@@ -33,13 +33,8 @@ py::array_t<T> event_column(const RunResult& r, F get) {
   return a;
 }
 
-}  // namespace
-
-PYBIND11_MODULE(_core, m) {
-  m.doc() = "vadsim C++ core: the 7-DOF vibro-impact model integrated by CVODE";
-  m.attr("N_DOF") = kDof;
-  m.attr("N_SURFACES") = kSurfaces;
-
+/// @brief SolverError and the enums: the vocabulary the other classes use.
+void bind_errors_and_enums(py::module_& m) {
   py::register_exception<SolverError>(m, "SolverError", PyExc_RuntimeError);
 
   py::enum_<ContactLawKind>(m, "ContactLawKind")
@@ -51,7 +46,10 @@ PYBIND11_MODULE(_core, m) {
       .value("None_", Record::None)
       .value("Window", Record::Window)
       .value("All", Record::All);
+}
 
+/// @brief Params with one property per parameter of param_table(), pickling and the name table.
+void bind_params(py::module_& m) {
   auto params = py::class_<Params>(m, "Params", "Table 2.1 parameters plus l0, wob, law options");
   params.def(py::init<>())
       .def_readwrite("law", &Params::law)
@@ -90,8 +88,12 @@ PYBIND11_MODULE(_core, m) {
     }
     return out;
   });
+}
 
-  py::class_<ExtraForce, std::shared_ptr<ExtraForce>>(m, "ExtraForce").def_property_readonly("name", &ExtraForce::name);
+/// @brief The built-in extra physics terms (held by shared_ptr: a Model shares them).
+void bind_extra_forces(py::module_& m) {
+  py::class_<ExtraForce, std::shared_ptr<ExtraForce>>(m, "ExtraForce")
+      .def_property_readonly("name", &ExtraForce::name);
   py::class_<HydraulicForce, ExtraForce, std::shared_ptr<HydraulicForce>>(m, "HydraulicForce")
       .def(py::init<int, double>(), py::arg("dof"), py::arg("c"));
   py::class_<CoulombFriction, ExtraForce, std::shared_ptr<CoulombFriction>>(m, "CoulombFriction")
@@ -100,7 +102,10 @@ PYBIND11_MODULE(_core, m) {
   py::class_<SpringDashpot, ExtraForce, std::shared_ptr<SpringDashpot>>(m, "SpringDashpot")
       .def(py::init<int, int, double, double>(), py::arg("dof_a"), py::arg("dof_b"),
            py::arg("k"), py::arg("c"));
+}
 
+/// @brief Model: construction and the pure evaluations tests and fits call.
+void bind_model(py::module_& m) {
   py::class_<Model>(m, "Model")
       .def(py::init([](const Params& p, const std::vector<std::shared_ptr<ExtraForce>>& ex) {
              return Model(p, std::vector<ExtraForcePtr>(ex.begin(), ex.end()));
@@ -129,7 +134,10 @@ PYBIND11_MODULE(_core, m) {
       .def("energy", [](const Model& mo, const State& y, const std::vector<int>& md) {
         return mo.energy(y, modes_from(md));
       });
+}
 
+/// @brief RunOptions, field by field.
+void bind_run_options(py::module_& m) {
   py::class_<RunOptions>(m, "RunOptions")
       .def(py::init<>())
       .def_readwrite("flow_gpm", &RunOptions::flow_gpm)
@@ -147,7 +155,10 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("max_events", &RunOptions::max_events)
       .def_readwrite("initial_state", &RunOptions::initial_state)
       .def("validate", &RunOptions::validate);
+}
 
+/// @brief The result types, read-only: numpy views of the C++ arrays.
+void bind_results(py::module_& m) {
   py::class_<SolverStats>(m, "SolverStats")
       .def_readonly("steps", &SolverStats::steps)
       .def_readonly("rhs_evals", &SolverStats::rhs_evals)
@@ -186,21 +197,27 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("y_end", &RunResult::y_end)
       .def_property_readonly("event_t",
                              [](const RunResult& r) {
-                               return event_column<double>(r, [](const ContactEvent& e) { return e.t; });
+                               return event_column<double>(
+                                   r, [](const ContactEvent& e) { return e.t; });
                              })
       .def_property_readonly("event_surface",
                              [](const RunResult& r) {
-                               return event_column<int>(r, [](const ContactEvent& e) { return e.surface; });
+                               return event_column<int>(
+                                   r, [](const ContactEvent& e) { return e.surface; });
                              })
       .def_property_readonly("event_kind",
                              [](const RunResult& r) {
-                               return event_column<int>(
-                                   r, [](const ContactEvent& e) { return static_cast<int>(e.kind); });
+                               return event_column<int>(r, [](const ContactEvent& e) {
+                                 return static_cast<int>(e.kind);
+                               });
                              })
       .def_property_readonly("event_rel_velocity", [](const RunResult& r) {
         return event_column<double>(r, [](const ContactEvent& e) { return e.rel_velocity; });
       });
+}
 
+/// @brief simulate with the GIL released, so Python threads run simulations in parallel.
+void bind_simulate(py::module_& m) {
   m.def(
       "simulate",
       [](const Model& model, const RunOptions& opts) {
@@ -210,4 +227,22 @@ PYBIND11_MODULE(_core, m) {
       py::arg("model"), py::arg("options"),
       "Run the model (GIL released). Raises SolverError on solver failure, ValueError on bad "
       "options.");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "vadsim C++ core: the 7-DOF vibro-impact model integrated by CVODE";
+  m.attr("N_DOF") = kDof;
+  m.attr("N_SURFACES") = kSurfaces;
+#ifdef VADSIM_VERSION
+  m.attr("__version__") = VADSIM_VERSION;  // pyproject.toml's, passed in by CMake
+#endif
+  bind_errors_and_enums(m);
+  bind_params(m);
+  bind_extra_forces(m);
+  bind_model(m);
+  bind_run_options(m);
+  bind_results(m);
+  bind_simulate(m);
 }

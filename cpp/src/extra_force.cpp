@@ -32,14 +32,15 @@ CoulombFriction::CoulombFriction(int a, int b, double force, double v_eps)
   if (!(v_eps > 0)) throw std::invalid_argument("coulomb_friction v_eps must be > 0");
 }
 
-void CoulombFriction::add_force(double, double, const Vec7&, const Vec7& v, Vec7& f) const {
+void CoulombFriction::add_force(double, double, const Vec7CRef&, const Vec7CRef& v,
+                                Vec7& f) const {
   const double vr = v[a_] - (b_ >= 0 ? v[b_] : 0.0);
   const double F = force_ * std::tanh(vr / v_eps_);
   f[a_] -= F;
   if (b_ >= 0) f[b_] += F;
 }
 
-void CoulombFriction::add_jacobian(double, double, const Vec7&, const Vec7& v, Mat7&,
+void CoulombFriction::add_jacobian(double, double, const Vec7CRef&, const Vec7CRef& v, Mat7&,
                                    Mat7& dfdv) const {
   const double vr = v[a_] - (b_ >= 0 ? v[b_] : 0.0);
   const double th = std::tanh(vr / v_eps_);
@@ -59,7 +60,8 @@ SpringDashpot::SpringDashpot(int a, int b, double k, double c) : a_(a), b_(b), k
   check_nonneg(c, "spring_dashpot c");
 }
 
-void SpringDashpot::add_force(double, double, const Vec7& u, const Vec7& v, Vec7& f) const {
+void SpringDashpot::add_force(double, double, const Vec7CRef& u, const Vec7CRef& v,
+                              Vec7& f) const {
   const double du = u[a_] - (b_ >= 0 ? u[b_] : 0.0);
   const double dv = v[a_] - (b_ >= 0 ? v[b_] : 0.0);
   const double F = k_ * du + c_ * dv;
@@ -67,14 +69,14 @@ void SpringDashpot::add_force(double, double, const Vec7& u, const Vec7& v, Vec7
   if (b_ >= 0) f[b_] += F;
 }
 
-void SpringDashpot::add_jacobian(double, double, const Vec7&, const Vec7&, Mat7& dfdx,
+void SpringDashpot::add_jacobian(double, double, const Vec7CRef&, const Vec7CRef&, Mat7& dfdu,
                                  Mat7& dfdv) const {
-  dfdx(a_, a_) -= k_;
+  dfdu(a_, a_) -= k_;
   dfdv(a_, a_) -= c_;
   if (b_ >= 0) {
-    dfdx(a_, b_) += k_;
-    dfdx(b_, a_) += k_;
-    dfdx(b_, b_) -= k_;
+    dfdu(a_, b_) += k_;
+    dfdu(b_, a_) += k_;
+    dfdu(b_, b_) -= k_;
     dfdv(a_, b_) += c_;
     dfdv(b_, a_) += c_;
     dfdv(b_, b_) -= c_;

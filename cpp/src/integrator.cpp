@@ -1,346 +1,229 @@
 #include "vadsim/integrator.hpp"
 
+#include <algorithm>
 #include <cmath>
-#include <sstream>
+#include <string>
 
+#include "vadsim/contact_tracker.hpp"
 #include "vadsim/cvode_solver.hpp"
+#include "vadsim/recorder.hpp"
 
 namespace vadsim {
 
 namespace {
 
-/// @brief What the CVODE callbacks need: the const model, the flow and the current modes.
-struct Workspace {
+/// @brief What CVODE's callbacks need: the const model, the flow, and the tracker that owns
+/// the contact modes of the running segment.
+struct CallbackData {
   const Model* model;
-  double flow;
-  Modes modes;
-  int n_roots;
+  double flow_gpm;
+  const ContactTracker* contacts;
 };
 
 int rhs_cb(sunrealtype t, N_Vector y, N_Vector ydot, void* data) {
-  const auto* w = static_cast<const Workspace*>(data);
+  const auto* w = static_cast<const CallbackData*>(data);
   Eigen::Map<const State> ym(NV_DATA_S(y));
   Eigen::Map<State> yd(NV_DATA_S(ydot));
-  w->model->rhs(t, w->flow, ym, w->modes, yd);
+  w->model->rhs(t, w->flow_gpm, ym, w->contacts->modes(), yd);
   return yd.allFinite() ? 0 : 1;  // recoverable: CVODE retries with a smaller step
 }
 
 int jac_cb(sunrealtype t, N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector,
            N_Vector) {
-  const auto* w = static_cast<const Workspace*>(data);
+  const auto* w = static_cast<const CallbackData*>(data);
   Eigen::Map<const State> ym(NV_DATA_S(y));
   Eigen::Map<Mat14> Jm(SM_DATA_D(J));
-  w->model->jacobian(t, w->flow, ym, w->modes, Jm);
+  w->model->jacobian(t, w->flow_gpm, ym, w->contacts->modes(), Jm);
   return 0;
 }
 
 int root_cb(sunrealtype, N_Vector y, sunrealtype* g, void* data) {
-  const auto* w = static_cast<const Workspace*>(data);
-  Eigen::Map<const State> ym(NV_DATA_S(y));
-  for (int s = 0; s < kSurfaces; ++s) g[s] = w->model->indentation(s, ym);
-  for (int s = 0; 2 * kSurfaces <= w->n_roots && s < kSurfaces; ++s) {
-    const bool live = w->model->pushes_only(s) && w->modes[s] != ContactMode::Open;
-    g[kSurfaces + s] = live ? w->model->push_indicator(s, ym) : 1.0;
-  }
+  const auto* w = static_cast<const CallbackData*>(data);
+  w->contacts->roots(Eigen::Map<const State>(NV_DATA_S(y)), g);
   return 0;
 }
 
-/// @brief A uniform time grid that is filled as the integration passes it.
-struct Grid {
-  double t0 = 0, dt = 1;
-  long n = 0, next = 0;
-  double time(long k) const { return t0 + static_cast<double>(k) * dt; }
-  bool pending(double tlim) const { return next < n && time(next) <= tlim; }
+/// @brief The segment CVODE is integrating: its start state, then CVODE's interpolant.
+class Segment final : public Trajectory {
+ public:
+  explicit Segment(const CvodeSolver& solver) : solver_(solver) {}
+  void begin(double t0, const State& y0) {
+    t0_ = t0;
+    y0_ = y0;
+  }
+  double t0() const { return t0_; }
+  Eigen::Map<const State> interpolate(double t) const override {
+    solver_.interpolate(t, solver_.work());
+    return Eigen::Map<const State>(NV_DATA_S(solver_.work()));
+  }
+  Eigen::Map<const State> sample(double t) const override {
+    return t <= t0_ ? Eigen::Map<const State>(y0_.data()) : interpolate(t);
+  }
+
+ private:
+  const CvodeSolver& solver_;
+  double t0_ = 0;
+  State y0_ = State::Zero();
 };
 
-void fail_option(const char* name, double v, const char* why) {
-  std::ostringstream os;
-  os << "option " << name << " = " << v << " " << why;
-  throw std::invalid_argument(os.str());
+/// @brief The initial state in displacements from the static equilibrium.
+State initial_displacements(const Model& model, const RunOptions& opts) {
+  State y0 = State::Zero();
+  if (opts.initial_state) {
+    y0 = *opts.initial_state;
+    y0.head<kDof>() -= model.static_positions();
+  }
+  return y0;
+}
+
+/// @brief CVODE's absolute tolerances: atol on displacements, atol * 1000 1/s on velocities.
+State absolute_tolerances(const RunOptions& opts) {
+  State atol;
+  atol.head<kDof>().setConstant(opts.atol);
+  atol.tail<kDof>().setConstant(opts.atol * 1e3);
+  return atol;
+}
+
+/// @brief One run: steps CVODE, and at every contact switch records it and restarts.
+class EventLoop {
+ public:
+  /// @brief Sizes the recorder and creates CVODE; throws before any step on bad input.
+  EventLoop(const Model& model, const RunOptions& opts, RunResult& r);
+  EventLoop(const EventLoop&) = delete;
+  EventLoop& operator=(const EventLoop&) = delete;
+  /// @brief The whole run: step, record, switch contacts at events, restart, until t_end.
+  void run();
+
+ private:
+  /// @brief One CVODE step within the run's step budget.
+  int take_step(double& tret);
+  /// @brief After a step without roots: if a contact switched unreported inside it, record
+  /// up to the switch, apply it and restart there (true); else false.
+  bool restart_at_missed_crossing(double t_prev, double tret);
+  /// @brief At a root return: apply the reported switches and restart (event budget checked).
+  void restart_at_roots();
+  /// @brief Throws when steps stop advancing time (contact chatter).
+  void check_progress(double tret);
+  /// @brief Start a new smooth segment at (t, y).
+  void restart(double t, const State& y);
+  /// @brief Grid points at t_end, summary means, statistics and the final state.
+  void finish();
+  State current_state() const { return Eigen::Map<const State>(NV_DATA_S(solver_.y())); }
+
+  const Model& model_;
+  const RunOptions& opts_;
+  RunResult& r_;
+  const Horizon horizon_;
+  const long max_events_;
+  Recorder recorder_;
+  ContactTracker contacts_;
+  CallbackData callbacks_;
+  CvodeSolver solver_;
+  Segment segment_;
+  double t_ = 0;
+  long calls_ = 0, stalled_ = 0;
+};
+
+EventLoop::EventLoop(const Model& model, const RunOptions& opts, RunResult& r)
+    : model_(model),
+      opts_(opts),
+      r_(r),
+      horizon_(model.params(), opts),
+      max_events_(opts.max_events > 0 ? opts.max_events
+                                      : static_cast<long>(200 * std::ceil(opts.cycles)) + 1000),
+      recorder_(model, opts, horizon_, r),
+      contacts_(model, opts.flow_gpm, r.events),
+      callbacks_{&model, opts.flow_gpm, &contacts_},
+      solver_(contacts_.n_roots(), opts.method, opts.rtol, absolute_tolerances(opts),
+              &callbacks_, rhs_cb, jac_cb, root_cb),
+      segment_(solver_) {
+  r_.flow_gpm = opts.flow_gpm;
+  r_.f_exc_hz = horizon_.f_exc_hz;
+  r_.t_end = horizon_.t_end;
+  if (opts.max_step > 0) solver_.set_max_step(opts.max_step);
+}
+
+void EventLoop::run() {
+  const State y0 = initial_displacements(model_, opts_);
+  contacts_.start(y0);
+  restart(0.0, y0);
+  while (true) {
+    const double t_prev = t_;
+    double tret = t_;
+    const int flag = take_step(tret);
+    if (flag != CV_ROOT_RETURN && restart_at_missed_crossing(t_prev, tret)) continue;
+    recorder_.record_until(tret, segment_, contacts_.modes());
+    check_progress(tret);
+    t_ = tret;
+    if (flag == CV_TSTOP_RETURN || t_ >= horizon_.t_end) break;
+    if (flag == CV_ROOT_RETURN) restart_at_roots();
+  }
+  finish();
+}
+
+int EventLoop::take_step(double& tret) {
+  const int flag = solver_.step(horizon_.t_end, tret);
+  if (++calls_ > opts_.max_steps) {
+    throw SolverError("CVode", tret, 0,
+                      "step budget max_steps = " + std::to_string(opts_.max_steps) +
+                          " exhausted: the run is too stiff or chatters");
+  }
+  return flag;
+}
+
+bool EventLoop::restart_at_missed_crossing(double t_prev, double tret) {
+  const MissedCrossing c = contacts_.find_missed(
+      t_prev, tret, Eigen::Map<const State>(NV_DATA_S(solver_.y())), segment_);
+  if (c.surface < 0) return false;
+  const State yx = segment_.interpolate(c.t);  // a copy: recording reuses the scratch vector
+  recorder_.record_until(c.t, segment_, contacts_.modes());  // up to the switch, old modes
+  contacts_.apply_missed(c, yx);
+  restart(c.t, yx);
+  return true;
+}
+
+void EventLoop::restart_at_roots() {
+  const State yr = current_state();
+  contacts_.apply_roots(solver_.roots_found(), t_, yr);
+  if (static_cast<long>(r_.events.size()) > max_events_) {
+    throw SolverError("root-finding", t_, 0,
+                      "more than max_events = " + std::to_string(max_events_) +
+                          " contact events: the contacts chatter");
+  }
+  restart(t_, yr);
+}
+
+void EventLoop::check_progress(double tret) {
+  stalled_ = (tret - t_ <= 1e-12 * std::max(1.0, std::abs(t_))) ? stalled_ + 1 : 0;
+  if (stalled_ > 1000) {
+    throw SolverError("CVode", tret, 0, "no progress in time over 1000 steps (contact chatter)");
+  }
+}
+
+void EventLoop::restart(double t, const State& y) {
+  segment_.begin(t, y);
+  t_ = t;
+  solver_.restart(t, y, horizon_.t_end);
+}
+
+void EventLoop::finish() {
+  // Points at exactly t_end (rounding) that the last step did not reach.
+  const State ye = current_state();
+  const double t_last = horizon_.t_end * (1 + 1e-12);
+  segment_.begin(t_last, ye);
+  recorder_.record_until(t_last, segment_, contacts_.modes());
+  recorder_.finish();
+  r_.stats = solver_.stats();
+  r_.y_end.head<kDof>() = model_.static_positions() + ye.head<kDof>();
+  r_.y_end.tail<kDof>() = ye.tail<kDof>();
 }
 
 }  // namespace
 
-void RunOptions::validate() const {
-  if (!(flow_gpm > 0) || !std::isfinite(flow_gpm)) fail_option("flow_gpm", flow_gpm, "must be > 0");
-  if (!(cycles >= 1e-3) || !std::isfinite(cycles)) fail_option("cycles", cycles, "must be >= 0.001");
-  if (cycles > 1e6) fail_option("cycles", cycles, "must be <= 1e6");
-  if (!(analyse_cycles > 0) || analyse_cycles > cycles)
-    fail_option("analyse_cycles", analyse_cycles, "must be in (0, cycles]");
-  if (!(rtol >= 1e-14 && rtol <= 1e-1)) fail_option("rtol", rtol, "must be in [1e-14, 0.1]");
-  if (!(atol > 0) || !std::isfinite(atol)) fail_option("atol", atol, "must be > 0");
-  if (!(max_step >= 0) || !std::isfinite(max_step)) fail_option("max_step", max_step, "must be >= 0");
-  if (!(output_rate_hz >= 0) || output_rate_hz > 1e7)
-    fail_option("output_rate_hz", output_rate_hz, "must be in [0, 1e7]");
-  if (!(summary_rate_hz > 0) || summary_rate_hz > 1e7)
-    fail_option("summary_rate_hz", summary_rate_hz, "must be in (0, 1e7]");
-  if (!(peak_window_s > 0) || !std::isfinite(peak_window_s))
-    fail_option("peak_window_s", peak_window_s, "must be > 0");
-  if (max_steps <= 0) fail_option("max_steps", static_cast<double>(max_steps), "must be > 0");
-  if (max_events < 0) fail_option("max_events", static_cast<double>(max_events), "must be >= 0");
-  if (initial_state && !initial_state->allFinite())
-    throw std::invalid_argument("option initial_state must be finite");
-}
-
 RunResult simulate(const Model& model, const RunOptions& opts) {
   opts.validate();
-  const Params& p = model.params();
   RunResult r;
-  r.flow_gpm = opts.flow_gpm;
-  r.f_exc_hz = p.excitation_hz(opts.flow_gpm);
-  const double period = 1.0 / r.f_exc_hz;
-  r.t_end = opts.cycles * period;
-  const double t_w0 = (opts.cycles - opts.analyse_cycles) * period;
-  // A stored sample is 28 doubles (x, v, a, 5 forces, F_H, t): 2e7 samples are 4.5 GB,
-  // beyond which a request is a mistake (this machine has 24 GB), not an analysis.
-  const double samples_limit = 2e7;
-  auto grid_count = [&](double span, double rate, const char* name, bool stored) {
-    const double n = std::floor(span * rate * (1 + 1e-12)) + 1;
-    if (stored && n > samples_limit)
-      fail_option(name, rate, "asks for more than 2e7 stored samples (4.5 GB): lower the rate "
-                              "or record only the window");
-    if (n > 1e10) fail_option(name, rate, "asks for more than 1e10 samples");
-    return static_cast<long>(n);
-  };
-
-  // Output grid, summary grid and Poincare section.
-  Grid out, sum, sec;
-  if (opts.record != Record::None && opts.output_rate_hz > 0) {
-    out.t0 = (opts.record == Record::Window) ? t_w0 : 0.0;
-    out.dt = 1.0 / opts.output_rate_hz;
-    out.n = grid_count(r.t_end - out.t0, opts.output_rate_hz, "output_rate_hz", true);
-  }
-  sum.t0 = t_w0;
-  sum.dt = 1.0 / opts.summary_rate_hz;
-  sum.n = std::max(1L, grid_count(r.t_end - t_w0, opts.summary_rate_hz, "summary_rate_hz", false) - 1);
-  sec.dt = period;
-  sec.n = static_cast<long>(std::floor(opts.cycles * (1 + 1e-12))) + 1;
-
-  r.t.resize(out.n);
-  r.x.resize(out.n, kDof);
-  r.v.resize(out.n, kDof);
-  r.a.resize(out.n, kDof);
-  r.fc.resize(out.n, kSurfaces);
-  r.fh.resize(out.n);
-  r.poincare_t.resize(sec.n);
-  r.poincare.resize(sec.n, kState);
-  auto& sm = r.summary;
-  sm.t0 = t_w0;
-  sm.t1 = r.t_end;
-  sm.rate_hz = opts.summary_rate_hz;
-  sm.samples = sum.n;
-  const double per_window = opts.peak_window_s * opts.summary_rate_hz;
-  const long n_windows =
-      static_cast<long>(std::floor((r.t_end - t_w0) / opts.peak_window_s + 1e-9));
-  sm.window_peaks = RowMat7::Zero(std::max(0L, n_windows), kDof);
-
-  // Initial state in displacements from the static equilibrium.
-  const Vec7& xs = model.static_positions();
-  State y0 = State::Zero();
-  if (opts.initial_state) {
-    y0 = *opts.initial_state;
-    y0.head<kDof>() -= xs;
-  }
-
-  Workspace w{&model, opts.flow_gpm, {}, kSurfaces};
-  for (int s = 0; s < kSurfaces; ++s) {
-    if (model.pushes_only(s)) w.n_roots = 2 * kSurfaces;
-    w.modes[s] = model.indentation(s, y0) > 0 ? ContactMode::Pushing : ContactMode::Open;
-  }
-  for (int s = 0; s < kSurfaces; ++s) w.modes[s] = model.mode_at(s, y0, 0.0, opts.flow_gpm, w.modes);
-
-  Eigen::VectorXd atol(kState);
-  atol.head<kDof>().setConstant(opts.atol);
-  atol.tail<kDof>().setConstant(opts.atol * 1e3);
-  CvodeSolver solver(kState, w.n_roots, opts.method, opts.rtol, atol, &w, rhs_cb, jac_cb,
-                     root_cb);
-  if (opts.max_step > 0) solver.set_max_step(opts.max_step);
-
-  const long max_events = opts.max_events > 0
-                              ? opts.max_events
-                              : static_cast<long>(200 * std::ceil(opts.cycles)) + 1000;
-  Evaluation ev;
-  State yk;
-  N_Vector tmp = solver.work();
-
-  // Fill every grid point up to tlim with the current segment's interpolant (or y_at when the
-  // point is the segment's own start, where no step exists yet to interpolate).
-  auto emit = [&](double tlim, double t_start, const State& y_start) {
-    auto sample = [&](double t) {
-      if (t <= t_start) {
-        yk = y_start;
-      } else {
-        solver.interpolate(t, tmp);
-        yk = Eigen::Map<const State>(NV_DATA_S(tmp));
-      }
-      model.evaluate(t, opts.flow_gpm, yk, w.modes, ev);
-    };
-    while (sec.pending(tlim)) {
-      const double t = sec.time(sec.next);
-      sample(t);
-      r.poincare_t[sec.next] = t;
-      r.poincare.row(sec.next).head<kDof>() = (xs + yk.head<kDof>()).transpose();
-      r.poincare.row(sec.next).tail<kDof>() = yk.tail<kDof>().transpose();
-      ++sec.next;
-    }
-    while (out.pending(tlim)) {
-      const long k = out.next++;
-      const double t = out.time(k);
-      sample(t);
-      r.t[k] = t;
-      r.x.row(k) = (xs + yk.head<kDof>()).transpose();
-      r.v.row(k) = yk.tail<kDof>().transpose();
-      r.a.row(k) = ev.acc.transpose();
-      for (int s = 0; s < kSurfaces; ++s) r.fc(k, s) = ev.fc[s];
-      r.fh[k] = ev.fh;
-    }
-    while (sum.pending(tlim)) {
-      const long k = sum.next++;
-      sample(sum.time(k));
-      const double fi = ev.fc[kImpact];
-      sm.impulse_mean += fi;
-      sm.impulse_pos += fi > 0 ? fi : 0.0;
-      const long win = static_cast<long>(std::floor(k / per_window + 1e-9));
-      if (win < n_windows) {
-        for (int i = 0; i < kDof; ++i)
-          sm.window_peaks(win, i) = std::max(sm.window_peaks(win, i), std::abs(ev.acc[i]));
-      }
-    }
-  };
-
-  // A contact whose indentation is exactly zero when CVODE restarts has its root function
-  // switched off until it moves away from zero, and CVODE then turns it back on without
-  // reporting the crossing (e.g. a bit resting on the rock with zero force, pushed by the
-  // anvil's first impact). Two guards: such contacts get their mode from mode_at() at every
-  // restart, and after every step each mode is checked against the sign of its indentation,
-  // a disagreement being located by bisection on CVODE's interpolant.
-  const double tiny = 1e-13 * p.l0;
-  auto record_switch = [&](int s, ContactMode next, double te, const State& y) {
-    const ContactMode prev = w.modes[s];
-    if (next == prev) return;
-    EventKind kind;
-    if (prev == ContactMode::Open) kind = EventKind::Onset;
-    else if (next == ContactMode::Open) kind = EventKind::Release;
-    else kind = (next == ContactMode::Lifted) ? EventKind::Lift : EventKind::Relatch;
-    w.modes[s] = next;
-    r.events.push_back({te, s, kind, model.indentation_rate(s, y)});
-  };
-  auto resolve_boundaries = [&](double te, const State& y, const int* skip) {
-    for (int s = 0; s < kSurfaces; ++s) {
-      if ((skip && skip[s] != 0) || std::abs(model.indentation(s, y)) > tiny) continue;
-      record_switch(s, model.mode_at(s, y, te, opts.flow_gpm, w.modes), te, y);
-    }
-  };
-  auto contradicts = [&](int s, const Eigen::Ref<const State>& y) {
-    const double d = model.indentation(s, y);
-    return (w.modes[s] == ContactMode::Open) ? d > tiny : d < -tiny;
-  };
-  auto state_at = [&](double te) {
-    solver.interpolate(te, tmp);
-    return State(Eigen::Map<const State>(NV_DATA_S(tmp)));
-  };
-
-  double t = 0.0;
-  State y_seg = y0;
-  double t_seg = 0.0;
-  solver.restart(0.0, y0, r.t_end);
-  long calls = 0, stalled = 0;
-  while (true) {
-    const double t_prev = t;
-    double tret = t;
-    const int flag = solver.step(r.t_end, tret);
-    if (++calls > opts.max_steps) {
-      throw SolverError("CVode", tret, 0,
-                        "step budget max_steps = " + std::to_string(opts.max_steps) +
-                            " exhausted: the run is too stiff or chatters");
-    }
-    if (flag != CV_ROOT_RETURN) {
-      Eigen::Map<const State> yc(NV_DATA_S(solver.y()));
-      int missed = -1;
-      double t_cross = tret;
-      for (int s = 0; s < kSurfaces; ++s) {
-        if (!contradicts(s, yc)) continue;
-        double lo = t_prev, hi = tret;  // consistent at lo, not at hi
-        for (int it = 0; it < 200 && hi - lo > 4e-16 * std::max(1.0, std::abs(hi)); ++it) {
-          const double mid = 0.5 * (lo + hi);
-          (contradicts(s, state_at(mid)) ? hi : lo) = mid;
-        }
-        if (hi < t_cross || missed < 0) {
-          missed = s;
-          t_cross = hi;
-        }
-      }
-      if (missed >= 0) {
-        const State yx = state_at(t_cross);
-        emit(t_cross, t_seg, y_seg);
-        record_switch(missed,
-                      w.modes[missed] != ContactMode::Open ? ContactMode::Open
-                      : (model.pushes_only(missed) && model.push_indicator(missed, yx) < 0)
-                          ? ContactMode::Lifted
-                          : ContactMode::Pushing,
-                      t_cross, yx);
-        resolve_boundaries(t_cross, yx, nullptr);
-        y_seg = yx;
-        t = t_seg = t_cross;
-        solver.restart(t, y_seg, r.t_end);
-        continue;
-      }
-    }
-    emit(tret, t_seg, y_seg);
-    stalled = (tret - t <= 1e-12 * std::max(1.0, std::abs(t))) ? stalled + 1 : 0;
-    if (stalled > 1000) {
-      throw SolverError("CVode", tret, 0, "no progress in time over 1000 steps (contact chatter)");
-    }
-    t = tret;
-    if (flag == CV_TSTOP_RETURN || t >= r.t_end) break;
-    if (flag != CV_ROOT_RETURN) continue;
-
-    const State yr = Eigen::Map<const State>(NV_DATA_S(solver.y()));
-    const int* found = solver.roots_found();
-    int handled[kSurfaces] = {};
-    for (int s = 0; s < kSurfaces; ++s) {
-      const int dir_d = found[s];
-      const int dir_f = (w.n_roots > kSurfaces) ? found[kSurfaces + s] : 0;
-      if (dir_d == 0 && dir_f == 0) continue;
-      handled[s] = 1;
-      if (dir_d > 0 && w.modes[s] == ContactMode::Open) {
-        record_switch(s,
-                      (model.pushes_only(s) && model.push_indicator(s, yr) < 0)
-                          ? ContactMode::Lifted
-                          : ContactMode::Pushing,
-                      t, yr);
-      } else if (dir_d < 0 && w.modes[s] != ContactMode::Open) {
-        record_switch(s, ContactMode::Open, t, yr);
-      } else if (dir_f < 0 && w.modes[s] == ContactMode::Pushing) {
-        record_switch(s, ContactMode::Lifted, t, yr);
-      } else if (dir_f > 0 && w.modes[s] == ContactMode::Lifted) {
-        record_switch(s, ContactMode::Pushing, t, yr);
-      }
-    }
-    resolve_boundaries(t, yr, handled);
-    if (static_cast<long>(r.events.size()) > max_events) {
-      throw SolverError("root-finding", t, 0,
-                        "more than max_events = " + std::to_string(max_events) +
-                            " contact events: the contacts chatter");
-    }
-    y_seg = yr;
-    t_seg = t;
-    solver.restart(t, y_seg, r.t_end);
-  }
-  // Points at exactly t_end (rounding) that the last step did not reach.
-  Eigen::Map<const State> ye(NV_DATA_S(solver.y()));
-  y_seg = ye;
-  emit(r.t_end * (1 + 1e-12), r.t_end * (1 + 1e-12), y_seg);
-
-  for (const auto& e : r.events)
-    if (e.kind == EventKind::Onset && e.t >= t_w0) sm.onsets[e.surface] += 1;
-  if (sm.samples > 0) {
-    sm.impulse_mean /= static_cast<double>(sm.samples);
-    sm.impulse_pos /= static_cast<double>(sm.samples);
-  }
-  r.stats = solver.stats();
-  r.y_end.head<kDof>() = xs + ye.head<kDof>();
-  r.y_end.tail<kDof>() = ye.tail<kDof>();
+  EventLoop(model, opts, r).run();
   return r;
 }
 

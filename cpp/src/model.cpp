@@ -76,6 +76,7 @@ Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
   const int ia[kSurfaces] = {2, 1, 0, 2, 0}, ib[kSurfaces] = {1, 0, 2, 0, -1};
   for (int s = 0; s < kSurfaces; ++s) {
     SurfaceGeometry g{ia[s], ib[s], 1.0, ib[s] >= 0 ? -1.0 : 0.0, 0.0};
+    // Not g.project(xs_) + off_abs: the sum's order fixes the offset's last bit.
     g.offset = off_abs[s] + g.sa * xs_[g.a] + (g.b >= 0 ? g.sb * xs_[g.b] : 0.0);
     geom_[s] = g;
   }
@@ -87,41 +88,31 @@ Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
   }
 }
 
-double Model::indentation(int s, const Eigen::Ref<const State>& y) const {
-  const auto& g = geom_[s];
-  return g.sa * y[g.a] + (g.b >= 0 ? g.sb * y[g.b] : 0.0) + g.offset;
-}
-
-double Model::indentation_rate(int s, const Eigen::Ref<const State>& y) const {
-  const auto& g = geom_[s];
-  return g.sa * y[kDof + g.a] + (g.b >= 0 ? g.sb * y[kDof + g.b] : 0.0);
-}
-
 double Model::push_indicator(int s, const Eigen::Ref<const State>& y) const {
-  return laws_[s]->push_indicator(indentation(s, y), indentation_rate(s, y));
+  const Indentation c = geom_[s].at(y);
+  return laws_[s]->push_indicator(c.d, c.rate);
 }
 
 ContactMode Model::mode_at(int s, const Eigen::Ref<const State>& y, double t, double flow_gpm,
                            const Modes& modes) const {
-  const double d = indentation(s, y);
+  const Indentation c = geom_[s].at(y);
   const double tiny = 1e-13 * p_.l0;
   auto overlapping_mode = [&]() {
-    if (laws_[s]->pushes_only() && push_indicator(s, y) < 0) return ContactMode::Lifted;
+    if (laws_[s]->pushes_only() && laws_[s]->push_indicator(c.d, c.rate) < 0)
+      return ContactMode::Lifted;
     return ContactMode::Pushing;
   };
-  if (d > tiny) return overlapping_mode();
-  if (d < -tiny) return ContactMode::Open;
+  if (c.d > tiny) return overlapping_mode();
+  if (c.d < -tiny) return ContactMode::Open;
   // On the boundary: the direction of travel decides, then the curvature with the contact open.
-  const double dd = indentation_rate(s, y);
   const double vtiny = 1e-12;
-  if (dd > vtiny) return overlapping_mode();
-  if (dd < -vtiny) return ContactMode::Open;
+  if (c.rate > vtiny) return overlapping_mode();
+  if (c.rate < -vtiny) return ContactMode::Open;
   Modes trial = modes;
   trial[s] = ContactMode::Open;
   Evaluation e;
   evaluate(t, flow_gpm, y, trial, e);
-  const auto& g = geom_[s];
-  const double ddd = g.sa * e.acc[g.a] + (g.b >= 0 ? g.sb * e.acc[g.b] : 0.0);
+  const double ddd = geom_[s].project(e.acc);
   return ddd > 0 ? overlapping_mode() : ContactMode::Open;
 }
 
@@ -143,9 +134,8 @@ void Model::evaluate(double t, double flow_gpm, const Eigen::Ref<const State>& y
     double F = 0;
     if (modes[s] == ContactMode::Pushing) {
       const auto& g = geom_[s];
-      const double d = g.sa * u[g.a] + (g.b >= 0 ? g.sb * u[g.b] : 0.0) + g.offset;
-      const double dd = g.sa * v[g.a] + (g.b >= 0 ? g.sb * v[g.b] : 0.0);
-      F = laws_[s]->eval(d, dd).f;
+      const Indentation c = g.at(y);
+      F = laws_[s]->eval(c.d, c.rate).f;
       out.f[g.a] -= F * g.sa;
       if (g.b >= 0) out.f[g.b] -= F * g.sb;
     }
@@ -156,7 +146,7 @@ void Model::evaluate(double t, double flow_gpm, const Eigen::Ref<const State>& y
   double ddrag;
   out.f[1] += out.fh - exc_.drag(v[1], ddrag);
   if (!extras_.empty()) {
-    const Vec7 uu = u, vv = v;
+    const Vec7CRef uu(u), vv(v);  // views of y, not copies
     for (const auto& e : extras_) e->add_force(t, flow_gpm, uu, vv, out.f);
   }
   out.acc = out.f.cwiseProduct(inv_mass_);
@@ -178,9 +168,8 @@ void Model::jacobian(double t, double flow_gpm, const Eigen::Ref<const State>& y
   for (int s = 0; s < kSurfaces; ++s) {
     if (modes[s] != ContactMode::Pushing) continue;
     const auto& g = geom_[s];
-    const double d = g.sa * u[g.a] + (g.b >= 0 ? g.sb * u[g.b] : 0.0) + g.offset;
-    const double dd = g.sa * v[g.a] + (g.b >= 0 ? g.sb * v[g.b] : 0.0);
-    const ContactForce cf = laws_[s]->eval(d, dd);
+    const Indentation c = g.at(y);
+    const ContactForce cf = laws_[s]->eval(c.d, c.rate);
     const int idx[2] = {g.a, g.b};
     const double sg[2] = {g.sa, g.sb};
     for (int i = 0; i < 2; ++i) {
@@ -199,7 +188,7 @@ void Model::jacobian(double t, double flow_gpm, const Eigen::Ref<const State>& y
   dfdx(1, 2) -= dfh;
   dfdv(1, 1) -= ddrag;
   if (!extras_.empty()) {
-    const Vec7 uu = u, vv = v;
+    const Vec7CRef uu(u), vv(v);  // views of y, not copies
     for (const auto& e : extras_) e->add_jacobian(t, flow_gpm, uu, vv, dfdx, dfdv);
   }
   J.setZero();

@@ -5,6 +5,7 @@ import enum
 import numpy as np
 import numpy.typing as npt
 
+__version__: str
 N_DOF: int
 N_SURFACES: int
 

@@ -1,7 +1,11 @@
 #pragma once
 /// @file cvode_solver.hpp
-/// @brief RAII owner of a SUNDIALS context, vector, dense matrix, linear solver and CVODE
-/// memory: nothing leaks when a run throws, and every flag is turned into a SolverError.
+/// @brief RAII owner of a SUNDIALS context, vectors, dense matrix, linear solver and CVODE
+/// memory: nothing leaks when a run throws, every flag is turned into a SolverError naming the
+/// call and the time, and the statistics survive the re-initialisation at every contact event.
+///
+/// It knows nothing of the model or of the event loop: it integrates whatever callbacks it is
+/// given, on the 14-state problem the fast kernels are sized for.
 
 #include <cvode/cvode.h>
 #include <nvector/nvector_serial.h>
@@ -11,23 +15,30 @@
 
 #include <string>
 
-#include "vadsim/integrator.hpp"
+#include "vadsim/errors.hpp"
+#include "vadsim/results.hpp"
+#include "vadsim/run_options.hpp"
+#include "vadsim/types.hpp"
 
 namespace vadsim {
 
-/// @brief One CVODE integrator for a problem of fixed size with fixed callbacks.
+/// @brief One CVODE integrator for the 14-state problem with fixed callbacks.
 class CvodeSolver {
  public:
-  CvodeSolver(int n, int n_roots, Method method, double rtol,
-              const Eigen::Ref<const Eigen::VectorXd>& atol, void* user_data, CVRhsFn rhs,
-              CVLsJacFn jac, CVRootFn roots);
+  /// @brief Most root functions a problem may have (two per surface).
+  static constexpr int kMaxRoots = 2 * kSurfaces;
+
+  /// @brief Creates every SUNDIALS object and sets CVODE up; throws SolverError naming the
+  /// call that failed. atol is per state component.
+  CvodeSolver(int n_roots, Method method, double rtol, const State& atol, void* user_data,
+              CVRhsFn rhs, CVLsJacFn jac, CVRootFn roots);
   ~CvodeSolver() = default;
   CvodeSolver(const CvodeSolver&) = delete;
   CvodeSolver& operator=(const CvodeSolver&) = delete;
 
   /// @brief Restart from (t0, y0): the first call initialises, later ones re-initialise and
   /// fold the statistics of the previous segment into stats().
-  void restart(double t0, const Eigen::Ref<const Eigen::VectorXd>& y0, double t_stop);
+  void restart(double t0, const State& y0, double t_stop);
   /// @brief One internal step (CV_ONE_STEP); returns CV_SUCCESS, CV_ROOT_RETURN or
   /// CV_TSTOP_RETURN, throws on failure.
   int step(double tout, double& tret);
@@ -37,7 +48,9 @@ class CvodeSolver {
   const int* roots_found();
 
   void set_max_step(double h);
+  /// @brief The solution vector CVODE steps in place.
   N_Vector y() const { return h_.y; }
+  /// @brief A scratch vector of the same layout (for interpolation).
   N_Vector work() const { return h_.work; }
   /// @brief Statistics of all finished segments plus the running one.
   SolverStats stats() const;
@@ -45,6 +58,8 @@ class CvodeSolver {
  private:
   void check(int flag, const char* call, double t) const;
   void fold_stats();
+  static void error_handler(int code, const char* module, const char* function, char* msg,
+                            void* data);
 
   /// @brief The SUNDIALS objects; a member, so a constructor that throws half-way still
   /// frees what it had created.
@@ -61,11 +76,10 @@ class CvodeSolver {
   } h_;
   int n_roots_;
   bool initialised_ = false;
+  double t_last_ = 0;  ///< the latest time CVODE reached: the time of a getter's failure
   SolverStats done_;
   std::string last_error_;
-  int roots_[16] = {};
-  static void error_handler(int code, const char* module, const char* function, char* msg,
-                            void* data);
+  int roots_[kMaxRoots] = {};
 };
 
 }  // namespace vadsim

@@ -22,12 +22,13 @@ class ExtraForce {
   virtual std::string name() const = 0;
   /// @brief Add the force to f. u are displacements (m) from the static on-bottom state (the
   /// state the run starts from), v velocities (m/s): extra physics is a perturbation of that
-  /// state, and a spring added this way does not move the equilibrium.
-  virtual void add_force(double t, double flow_gpm, const Vec7& x, const Vec7& v,
+  /// state, and a spring added this way does not move the equilibrium. u and v view the
+  /// integrator's state in place (no copy per call).
+  virtual void add_force(double t, double flow_gpm, const Vec7CRef& u, const Vec7CRef& v,
                          Vec7& f) const = 0;
-  /// @brief Add df/dx and df/dv.
-  virtual void add_jacobian(double t, double flow_gpm, const Vec7& x, const Vec7& v,
-                            Mat7& dfdx, Mat7& dfdv) const = 0;
+  /// @brief Add df/du and df/dv.
+  virtual void add_jacobian(double t, double flow_gpm, const Vec7CRef& u, const Vec7CRef& v,
+                            Mat7& dfdu, Mat7& dfdv) const = 0;
 };
 
 /// @brief c Q^2 pushing one body (anvil or bit) towards the rock: the pressure drop across
@@ -36,10 +37,12 @@ class HydraulicForce final : public ExtraForce {
  public:
   HydraulicForce(int dof, double c);
   std::string name() const override { return "hydraulic_force"; }
-  void add_force(double, double flow_gpm, const Vec7&, const Vec7&, Vec7& f) const override {
+  void add_force(double, double flow_gpm, const Vec7CRef&, const Vec7CRef&,
+                 Vec7& f) const override {
     f[dof_] += c_ * flow_gpm * flow_gpm;
   }
-  void add_jacobian(double, double, const Vec7&, const Vec7&, Mat7&, Mat7&) const override {}
+  void add_jacobian(double, double, const Vec7CRef&, const Vec7CRef&, Mat7&,
+                    Mat7&) const override {}
 
  private:
   int dof_;
@@ -52,8 +55,8 @@ class CoulombFriction final : public ExtraForce {
  public:
   CoulombFriction(int dof_a, int dof_b, double force, double v_eps);
   std::string name() const override { return "coulomb_friction"; }
-  void add_force(double, double, const Vec7&, const Vec7& v, Vec7& f) const override;
-  void add_jacobian(double, double, const Vec7&, const Vec7& v, Mat7&,
+  void add_force(double, double, const Vec7CRef&, const Vec7CRef& v, Vec7& f) const override;
+  void add_jacobian(double, double, const Vec7CRef&, const Vec7CRef& v, Mat7&,
                     Mat7& dfdv) const override;
 
  private:
@@ -67,8 +70,9 @@ class SpringDashpot final : public ExtraForce {
  public:
   SpringDashpot(int dof_a, int dof_b, double k, double c);
   std::string name() const override { return "spring_dashpot"; }
-  void add_force(double, double, const Vec7& x, const Vec7& v, Vec7& f) const override;
-  void add_jacobian(double, double, const Vec7&, const Vec7&, Mat7& dfdx,
+  void add_force(double, double, const Vec7CRef& u, const Vec7CRef& v,
+                 Vec7& f) const override;
+  void add_jacobian(double, double, const Vec7CRef&, const Vec7CRef&, Mat7& dfdu,
                     Mat7& dfdv) const override;
 
  private:

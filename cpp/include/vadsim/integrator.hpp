@@ -4,55 +4,12 @@
 /// contact mode flipped and the integrator re-initialised, so that between events CVODE
 /// only ever sees a smooth right-hand side.
 
-#include <optional>
-#include <stdexcept>
-#include <string>
-
+#include "vadsim/errors.hpp"
 #include "vadsim/model.hpp"
 #include "vadsim/results.hpp"
+#include "vadsim/run_options.hpp"
 
 namespace vadsim {
-
-/// @brief A failed SUNDIALS call or an exhausted budget: names the call, the time and why.
-class SolverError : public std::runtime_error {
- public:
-  SolverError(const std::string& call, double t, int flag, const std::string& why);
-  double t() const { return t_; }
-  int flag() const { return flag_; }
-
- private:
-  double t_;
-  int flag_;
-};
-
-enum class Method { BDF = 0, Adams = 1 };
-enum class Record { None = 0, Window = 1, All = 2 };
-
-/// @brief How to run: the horizon in excitation cycles and what to record.
-struct RunOptions {
-  double flow_gpm = 200;
-  double cycles = 400;           ///< run length in excitation cycles
-  double analyse_cycles = 200;   ///< the steady window: the last cycles of the run
-  /// Adams by default: the stiffest mode (sub-LWD, ~1 kHz, damping ratio 0.13) must be resolved
-  /// for accuracy anyway, and Adams then needs ~30 % fewer steps than BDF for the same answer.
-  /// BDF is the choice for much stiffer parameter sets.
-  Method method = Method::Adams;
-  double rtol = 1e-6;
-  /// On displacements (m); velocities get atol * 1000 1/s. 10 nm is 1e-6 of the 7in gap;
-  /// tighter values multiply the steps without moving peaks or J* by more than 0.05 %.
-  double atol = 1e-8;
-  double max_step = 0;           ///< 0: CVODE's default (unbounded)
-  Record record = Record::Window;
-  double output_rate_hz = 20000; ///< stored time series (0: none)
-  double summary_rate_hz = 20000;///< the grid of WindowSummary (MODEL.md "full resolution")
-  double peak_window_s = 0.2;    ///< window of the peak statistics (dissertation section 3.2)
-  long max_steps = 20000000;     ///< budget, so that a pathological input cannot hang
-  long max_events = 0;           ///< 0: 200 per cycle
-  std::optional<State> initial_state;  ///< absolute [x; v]; default: static equilibrium
-
-  /// @brief Throws std::invalid_argument naming the bad option.
-  void validate() const;
-};
 
 /// @brief Run the model from its static state (or initial_state) with the flow switched on
 /// at t = 0. Thread-safe: each call owns its CVODE memory.

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "vadsim/contact_geometry.hpp"
 #include "vadsim/contact_law.hpp"
 #include "vadsim/excitation.hpp"
 #include "vadsim/extra_force.hpp"
@@ -17,13 +18,6 @@
 #include "vadsim/types.hpp"
 
 namespace vadsim {
-
-/// @brief Geometry of one contact: d = sa * x[a] + sb * x[b] + offset (b < 0: the ground).
-struct SurfaceGeometry {
-  int a, b;
-  double sa, sb;
-  double offset;  ///< in terms of displacements u (the static positions folded in)
-};
 
 /// @brief Everything the right-hand side computes, for outputs and for the Jacobian.
 struct Evaluation {
@@ -48,8 +42,12 @@ class Model {
   double x_top() const { return x_top_; }
 
   /// @brief Contact indentation d (m) and its rate d' (m/s) for a state [u; v].
-  double indentation(int s, const Eigen::Ref<const State>& y) const;
-  double indentation_rate(int s, const Eigen::Ref<const State>& y) const;
+  /// Inline: the root functions and the missed-crossing guard call these ~10 times a step.
+  Indentation contact(int s, const Eigen::Ref<const State>& y) const { return geom_[s].at(y); }
+  double indentation(int s, const Eigen::Ref<const State>& y) const { return geom_[s].at(y).d; }
+  double indentation_rate(int s, const Eigen::Ref<const State>& y) const {
+    return geom_[s].at(y).rate;
+  }
   /// @brief Sign of the unclamped force of a pushes-only law (for its lift-off root).
   double push_indicator(int s, const Eigen::Ref<const State>& y) const;
   /// @brief True if the surface's law cannot pull (it has a Lifted mode).

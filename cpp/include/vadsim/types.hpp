@@ -16,6 +16,9 @@ using Vec7 = Eigen::Matrix<double, kDof, 1>;
 using Mat7 = Eigen::Matrix<double, kDof, kDof>;
 using State = Eigen::Matrix<double, kState, 1>;
 using Mat14 = Eigen::Matrix<double, kState, kState>;
+/// @brief A read-only view of 7 contiguous doubles (a Vec7, or the u or v half of a State):
+/// callees see the caller's storage instead of a copy.
+using Vec7CRef = Eigen::Ref<const Vec7>;
 
 /// @brief Surface indices, in the order of MODEL.md's table (the rock last).
 enum Surface : int { kSpring = 0, kImpact = 1, kOffBottom = 2, kOnBottom = 3, kRock = 4 };
