@@ -46,7 +46,7 @@ _aliases.install(eager=("vadsim.presets", "vadsim.simulate", "vadsim.labels", "v
 # The analysis modules pull in xarray, matplotlib and dask: loaded on first use, so that
 # `import vadsim` stays quick for a single run.
 _LAZY = {
-    "blind": "vadsim.fit.blind",
+    "blind": "vadsim.blind",
     "calibrate": "vadsim.fit.calibrate",
     "candidates": "vadsim.fit.candidates",
     "compare": "vadsim.compare",

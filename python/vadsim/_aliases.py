@@ -30,7 +30,6 @@ ALIASES: dict[str, str] = {
     "vadsim.diagnose": "vadsim.fit.diagnose",
     "vadsim.candidates": "vadsim.fit.candidates",
     "vadsim.locate": "vadsim.fit.locate",
-    "vadsim.blind": "vadsim.fit.blind",
     "vadsim.sweep": "vadsim.studies.sweep",
     "vadsim.design": "vadsim.studies.design",
     "vadsim.thesis": "vadsim.studies.thesis",

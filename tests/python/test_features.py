@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from vadsim.compare import residual_table
 from vadsim.features import (
     DEFAULT_BANDS,
     REL_SPREAD_FLOOR,
@@ -18,10 +19,9 @@ from vadsim.features import (
     event_features,
     features_table,
     sensor_features,
-    standardised_residuals,
     summary_features,
 )
-from vadsim.labels import _window_bounds, impact_frequency, peak_stats, window_peaks
+from vadsim.labels import window_bounds, impact_frequency, peak_stats, window_peaks
 
 RATE = 1024.0
 BAND_KEYS = [band_key(lo, hi) for lo, hi in DEFAULT_BANDS]
@@ -136,7 +136,7 @@ def test_signal_falling_silent_shows_in_the_rate_spread() -> None:
 def modulated_spikes(window_heights: np.ndarray, f: float = 32.0) -> np.ndarray:
     """Spikes at f Hz whose height is ``window_heights[i]`` in 200 ms window i."""
     n_windows = window_heights.size
-    bounds = _window_bounds(round(n_windows * 0.2 * RATE) + 1, RATE, 0.2)[: n_windows + 1]
+    bounds = window_bounds(round(n_windows * 0.2 * RATE) + 1, RATE, 0.2)[: n_windows + 1]
     a = np.zeros(bounds[-1])
     idx = np.round((np.arange(0, a.size * f / RATE) + 0.5) * RATE / f).astype(int)
     idx = idx[idx < a.size]
@@ -329,10 +329,10 @@ def test_features_table_layout() -> None:
     assert isinstance(features_table({}), pd.DataFrame)
 
 
-def test_standardised_residuals() -> None:
+def test_residual_table() -> None:
     a = spike_train(32.0, 80.0, 4.0)
     rec = {"e01": event_features({"x1": a, "x5": 0.5 * a}, RATE)}
-    same = standardised_residuals(rec, rec)
+    same = residual_table(rec, rec)
     assert same.shape == (1, len(rec["e01"]))
     assert np.all(same.to_numpy() == 0.0)
 
@@ -341,7 +341,7 @@ def test_standardised_residuals() -> None:
         "e01": {k: Feature(f.value + shift.get(k, 0.0), 99.0, 1) for k, f in rec["e01"].items()},
         "e02": {"x1_peak_mean_g": Feature(1.0, 1.0, 1)},
     }
-    res = standardised_residuals(sim, rec, keys=list(shift))
+    res = residual_table(sim, rec, keys=list(shift))
     for k, d in shift.items():
         # The recording's spread standardises, not the simulation's.
         assert res.loc["e01", k] == pytest.approx(d / rec["e01"][k].spread)
@@ -349,7 +349,7 @@ def test_standardised_residuals() -> None:
     assert res.loc["e02"].isna().all()
 
     summary = {"e01": summary_features({"x1_peak_mean_g": 70.0, "x1_impact_hz": 30.0})}
-    res = standardised_residuals(rec, summary)
+    res = residual_table(rec, summary)
     assert list(res.columns) == ["x1_peak_mean_g", "x1_impact_hz"]
     assert res.loc["e01", "x1_peak_mean_g"] == pytest.approx((80.0 - 70.0) / 7.0)
     assert res.loc["e01", "x1_impact_hz"] == pytest.approx((32.0 - 30.0) / 3.0)
@@ -358,7 +358,7 @@ def test_standardised_residuals() -> None:
 def test_residual_is_nan_where_recorded_spread_cannot_standardise() -> None:
     sim = {"e": {"a_g": Feature(1.0, 1.0, 1), "b_g": Feature(1.0, 1.0, 1)}}
     rec = {"e": {"a_g": Feature(0.0, 0.0, 1), "b_g": Feature(math.nan, math.nan, 0)}}
-    assert standardised_residuals(sim, rec).isna().all().all()
+    assert residual_table(sim, rec).isna().all().all()
 
 
 def test_summary_features_default_spreads() -> None:
@@ -418,9 +418,9 @@ _GOOD = np.zeros(2048)
         (lambda: summary_features({"x1_peak_mean_g": 1.0}, floors={"m": 1.0}), "floors"),
         (lambda: summary_features({"x1_peak_mean_g": 1.0}, floors={"g": -1.0}), "floors"),
         (lambda: features_table({"e": {"a": 1.0}}), "features"),
-        (lambda: standardised_residuals({}, [], None), "rec"),
-        (lambda: standardised_residuals({}, {}, keys=["nope"]), "keys"),
-        (lambda: standardised_residuals({}, {}, keys="abc"), "keys"),
+        (lambda: residual_table({}, [], None), "rec"),
+        (lambda: residual_table({}, {}, keys=["nope"]), "keys"),
+        (lambda: residual_table({}, {}, keys="abc"), "keys"),
     ],
 )
 def test_bad_input_names_the_argument(call, name: str) -> None:

@@ -7,7 +7,9 @@ import pytest
 from vadsim.calibrate import calibrate, thesis_targets
 from vadsim.recordings import load_campaign, save_campaign
 from vadsim.synthetic import synthetic_campaign
-from vadsim.validate import event_residuals, findings, simulate_event, validate, write_report
+from vadsim import RunSettings
+from vadsim.compare import event_residuals, simulate_event
+from vadsim.validate import findings, validate, write_report
 
 SHORT = dict(cycles=80, analyse_cycles=50)
 
@@ -52,7 +54,7 @@ def test_a_changed_model_is_located(campaign, tmp_path):
 
 def test_residuals_combine_recorded_and_phase_spreads(campaign):
     ev = campaign.events[2]  # 600 gal/min: 16.0 samples per excitation cycle at 1024 Hz
-    sim = simulate_event(campaign, ev, **SHORT)
+    sim = simulate_event(campaign, ev, RunSettings("7in-cde", **SHORT))
     assert sim.phase_sd["x1_peak_mean_g"] > 0
     from vadsim.features import Feature
 

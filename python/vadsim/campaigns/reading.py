@@ -157,7 +157,7 @@ def _type_name(value: object) -> str:
 
 def _get_str(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
              required: bool = True, label: str = "") -> str | None:
-    key = path[-1]
+    key = str(path[-1])
     if key not in table:
         if required:
             ctx.fail(path, "required key is missing", label)
@@ -173,7 +173,7 @@ def _get_str(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, 
 def _get_number(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
                 required: bool = True, label: str = "") -> float | None:
     """A finite number; bools are rejected even though Python treats them as ints."""
-    key = path[-1]
+    key = str(path[-1])
     if key not in table:
         if required:
             ctx.fail(path, "required key is missing", label)
@@ -194,7 +194,7 @@ def _get_positive(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | 
                   required: bool = True, label: str = "") -> float | None:
     number = _get_number(ctx, table, path, required, label)
     if number is not None and number <= 0:
-        ctx.fail(path, f"must be > 0, got {table[path[-1]]!r}", label)
+        ctx.fail(path, f"must be > 0, got {table[str(path[-1])]!r}", label)
     return number
 
 
@@ -432,6 +432,26 @@ def _diagnose_rows(text: str, columns: list[str]) -> tuple[int, str] | None:
     return None
 
 
+def _check_header(header: list[str], expected: list[str], where: str) -> None:
+    """The header names ``time_s`` first and each declared sensor's column exactly once."""
+    if header[0] != "time_s":
+        raise CampaignError(f"{where}, line 1: the first column must be 'time_s', found "
+                            f"{header[0]!r} (expected header {','.join(expected)})")
+    for j, col in enumerate(header):
+        if col in header[:j]:
+            raise CampaignError(f"{where}, line 1: column {col!r} appears twice")
+        if col not in expected:
+            sensor = col[:-2] if col.endswith("_g") else None
+            why = (f"no sensor {sensor!r} is declared" if sensor
+                   else "sensor columns are named <sensor>_g")
+            raise CampaignError(f"{where}, line 1: unexpected column {col!r} ({why}; "
+                                f"expected columns {','.join(expected)})")
+    for col in expected:
+        if col not in header:
+            raise CampaignError(f"{where}, line 1: missing column {col!r} for sensor "
+                                f"{col[:-2]!r} declared in {CAMPAIGN_FILE}")
+
+
 def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
                     label: str) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
     """Read and validate one event CSV; return the samples and the clipping masks."""
@@ -453,22 +473,7 @@ def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
     except UnicodeDecodeError:
         raise CampaignError(f"{where}, line 1: not valid UTF-8 text") from None
     header = [h.strip() for h in header_text.split(",")]
-    if header[0] != "time_s":
-        raise CampaignError(f"{where}, line 1: the first column must be 'time_s', found "
-                            f"{header[0]!r} (expected header {','.join(expected)})")
-    for j, col in enumerate(header):
-        if col in header[:j]:
-            raise CampaignError(f"{where}, line 1: column {col!r} appears twice")
-        if col not in expected:
-            sensor = col[:-2] if col.endswith("_g") else None
-            why = (f"no sensor {sensor!r} is declared" if sensor
-                   else "sensor columns are named <sensor>_g")
-            raise CampaignError(f"{where}, line 1: unexpected column {col!r} ({why}; "
-                                f"expected columns {','.join(expected)})")
-    for col in expected:
-        if col not in header:
-            raise CampaignError(f"{where}, line 1: missing column {col!r} for sensor "
-                                f"{col[:-2]!r} declared in {CAMPAIGN_FILE}")
+    _check_header(header, expected, where)
     if len(head_and_body) < 2:
         raise CampaignError(f"{where}, line 2: no samples after the header")
 

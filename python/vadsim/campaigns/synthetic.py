@@ -16,9 +16,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vadsim.model.presets import Preset, get_preset
-from vadsim.model.simulate import G, simulate
 from vadsim.campaigns import Campaign, Event, Sensor
+from vadsim.model.presets import Preset, get_preset
+from vadsim.model.settings import RunSettings
+from vadsim.model.simulate import G
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
 __all__ = ["DEFAULT_SENSORS", "synthetic_campaign"]
@@ -89,13 +90,12 @@ def synthetic_campaign(
     rng = np.random.default_rng(seed)
     settle = cycles - analyse_cycles
     fine = SIMULATION_OVERSAMPLING * max(s.rate_hz for s in sensors.values())
+    base = RunSettings(p, overrides=overrides or {}, extras=tuple(extras), law=law)
     events: list[Event] = []
     for i, (q, wob) in enumerate(zip(flows, wobs, strict=True)):
-        f = p.params["alpha"] * q / (2 * math.pi)
-        n_an = math.ceil(duration_s * f) if duration_s else analyse_cycles
-        r = simulate(p, q, cycles=settle + n_an, analyse_cycles=n_an, overrides=overrides,
-                     extras=list(extras), law=law, wob_klbf=wob, record="window",
-                     output_rate_hz=fine)
+        n_an = math.ceil(duration_s * base.f_exc_hz(q)) if duration_s else analyse_cycles
+        r = base.with_changes(cycles=settle + n_an, analyse_cycles=n_an).run(
+            q, wob_klbf=wob, record="window", output_rate_hz=fine)
         phase = float(rng.uniform(0.0, 1.0))
         columns: dict[str, np.ndarray] = {}
         clipped: dict[str, np.ndarray] = {}
@@ -112,6 +112,7 @@ def synthetic_campaign(
         n = min(len(c) for c in columns.values())
         if duration_s:
             n = min(n, int(round(duration_s * max(s.rate_hz for s in sensors.values()))))
+        assert t_s is not None  # there is at least one sensor
         t0 = t_s[0]
         data = pd.DataFrame({"time_s": np.round(t_s[:n] - t0, 7),
                              **{k: v[:n] for k, v in columns.items()}})

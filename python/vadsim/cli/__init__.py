@@ -428,7 +428,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_blind(args: argparse.Namespace) -> int:
-    from vadsim.fit.blind import DEFAULT_SCENARIOS, blind_benchmark
+    from vadsim.blind import DEFAULT_SCENARIOS, blind_benchmark
 
     scenarios = DEFAULT_SCENARIOS
     if args.only:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import sys
+from typing import Any
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -35,7 +36,7 @@ def _number(text: str) -> float | None:
     return float(text) if text.strip() else None
 
 
-def build_campaigns(table: Path = FIELD_TABLE) -> dict[str, object]:
+def build_campaigns(table: Path = FIELD_TABLE) -> dict[str, Any]:
     """Build the three summary-only campaigns from the field table.
 
     Parameters
@@ -56,7 +57,7 @@ def build_campaigns(table: Path = FIELD_TABLE) -> dict[str, object]:
     for row in rows:
         groups.setdefault((row["tool"], row["bit"]), []).append(row)
 
-    campaigns: dict[str, object] = {}
+    campaigns: dict[str, Any] = {}
     for (tool, bit), group in groups.items():
         tests = sorted({r["test"] for r in group})
         wobs = {float(r["wob_klbf"]) for r in group}

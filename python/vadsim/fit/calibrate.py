@@ -21,24 +21,16 @@ import math
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from vadsim.fit.validate import (
-    EventSimulation,
-    campaign_preset,
-    event_residuals,
-    load_any_campaign,
-    recorded_features,
-    simulate_event,
-)
-from vadsim.model.presets import Preset, make_params
-from vadsim.model.simulate import SolverError, simulate
-from vadsim.campaigns import Campaign
+from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
+from vadsim.compare import CampaignEvaluator, ModelChange, recorded_features
+from vadsim.model.presets import Preset, canonical_name, make_params
+from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
 
 __all__ = ["CalibrationResult", "DEFAULT_BOUNDS", "calibrate", "calibration_cost",
@@ -50,8 +42,6 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
 }
 """Search ranges of the withheld constants: l0 in metres, wob in N/kg."""
 
-FAILED_RESIDUAL = 30.0
-"""Residual given to every target of an event whose run fails, so the search moves away."""
 
 
 def thesis_targets(campaign: Campaign) -> dict[str, dict[str, Feature]]:
@@ -85,7 +75,7 @@ def thesis_targets(campaign: Campaign) -> dict[str, dict[str, Feature]]:
 def _regime_targets(flow_gpm: float) -> dict[str, Feature]:
     """Z targets from the 7in regime boundaries (regimes_7in.csv, dissertation 4.1): a surface
     "regular" there has Z = 1, "none" Z = 0 (spread 0.05); intermittent gives no target."""
-    from vadsim.studies.thesis import published_regimes
+    from vadsim.data import published_regimes
 
     out: dict[str, Feature] = {}
     for _, row in published_regimes().iterrows():
@@ -97,99 +87,34 @@ def _regime_targets(flow_gpm: float) -> dict[str, Feature]:
     return out
 
 
-def _full_resolution_event(campaign: Campaign, event, preset: Preset,
-                          overrides: Mapping[str, float], cycles: float,
-                          analyse_cycles: float) -> EventSimulation:
-    """Peaks and impacts per cycle at full resolution from the core's own steady-window
-    summary (20 kHz): no time series is stored, which makes a 9.5in run 10x cheaper."""
-    r = simulate(preset, event.flow_gpm, cycles=cycles, analyse_cycles=analyse_cycles,
-                 overrides=overrides, wob_klbf=event.wob_klbf, record="none")
-    full: dict[str, Feature] = {}
-    for name, s in campaign.sensors.items():
-        peaks = r.window_peaks_g[:, s.dof - 1]
-        if peaks.size:
-            full[f"{name}_peak_mean_g"] = Feature(float(peaks.mean()), float(peaks.std()),
-                                                  int(peaks.size))
-            full[f"{name}_peak_std_g"] = Feature(float(peaks.std()), math.nan, int(peaks.size))
-    return EventSimulation(event_id=event.id, flow_gpm=event.flow_gpm,
-                           wob_klbf=float(event.wob_klbf), f_exc_hz=r.f_exc_hz, sensor={},
-                           full=full, z=r.z, scenario=r.scenario)
-
-
-def _event_residuals(sim: EventSimulation, targets: Mapping[str, Feature],
-                     resolution: str) -> dict[str, float]:
-    out = event_residuals(sim, targets, resolution)
-    for k, v in sim.z.items():  # impacts per cycle of the run itself, e.g. "z_impact"
-        t = targets.get(f"z_{k}")
-        if t is not None:
-            out[f"z_{k}"] = (v - t.value) / t.spread
-    return out
-
-
-class _Objective:
-    """The standardised residuals of a campaign at given parameter values (shared by
-    :func:`calibrate` and :func:`calibration_cost`)."""
-
-    def __init__(self, camp: Campaign, preset: Preset, targets, keys, resolution: str,
-                 overrides: Mapping[str, float] | None, cycles: float, analyse_cycles: float,
-                 pool: ThreadPoolExecutor) -> None:
-        if resolution not in ("sensor", "full"):
-            raise ValueError(f"resolution = {resolution!r} must be 'sensor' or 'full'")
-        if isinstance(targets, str):
-            if targets == "recorded":
-                tgt = {ev.id: recorded_features(camp, ev, preset.params["alpha"] * ev.flow_gpm
-                                                / (2 * math.pi)) for ev in camp.events}
-            elif targets == "thesis-sim":
-                tgt = thesis_targets(camp)
-            else:
-                raise ValueError(f"targets = {targets!r} must be 'recorded', 'thesis-sim' or "
-                                 "a mapping")
+def _objective(camp: Campaign, settings: RunSettings, targets, keys, resolution: str,
+               workers: int | None) -> CampaignEvaluator:
+    """The comparison engine set up for a calibration: its targets and compared keys."""
+    if resolution not in ("sensor", "full"):
+        raise ValueError(f"resolution = {resolution!r} must be 'sensor' or 'full'")
+    if isinstance(targets, str):
+        if targets == "recorded":
+            tgt = {ev.id: recorded_features(camp, ev, settings.f_exc_hz(ev.flow_gpm))
+                   for ev in camp.events}
+        elif targets == "thesis-sim":
+            tgt = thesis_targets(camp)
         else:
-            tgt = {k: dict(v) for k, v in targets.items()}
-        self.pairs = [(ev.id, k) for ev in camp.events for k in tgt.get(ev.id, {})
-                      if keys is None or k in keys]
-        if not self.pairs:
-            raise ValueError("no targets to fit (check keys and targets)")
-        self.camp, self.preset, self.tgt, self.resolution = camp, preset, tgt, resolution
-        self.overrides, self.cycles, self.analyse_cycles = overrides, cycles, analyse_cycles
-        self.pool = pool
+            raise ValueError(f"targets = {targets!r} must be 'recorded', 'thesis-sim' or "
+                             "a mapping")
+    else:
+        tgt = {k: dict(v) for k, v in targets.items()}
+    chosen = {ev.id: [k for k in tgt.get(ev.id, {}) if keys is None or k in keys]
+              for ev in camp.events}
+    if not any(chosen.values()):
+        raise ValueError("no targets to fit (check keys and targets)")
+    return CampaignEvaluator(camp, settings, targets=tgt, keys=chosen, resolution=resolution,
+                             workers=workers)
 
-    def run_all(self, values: Mapping[str, float]) -> dict[str, EventSimulation | None]:
-        ov = {**(self.overrides or {}), **values}
-        camp, preset = self.camp, self.preset
 
-        def one(ev):
-            try:
-                if self.resolution == "full":
-                    return _full_resolution_event(camp, ev, preset, ov, self.cycles,
-                                                  self.analyse_cycles)
-                return simulate_event(camp, ev, preset=preset, overrides=ov, cycles=self.cycles,
-                                      analyse_cycles=self.analyse_cycles)
-            except (SolverError, ValueError):
-                return None
-
-        return dict(zip([ev.id for ev in camp.events],
-                        self.pool.map(one, camp.events), strict=True))
-
-    def residuals(self, values: Mapping[str, float]) -> np.ndarray:
-        sims = self.run_all(values)
-        per_event: dict[str, dict[str, float]] = {}
-        out = np.empty(len(self.pairs))
-        for i, (eid, key) in enumerate(self.pairs):
-            sim = sims[eid]
-            if sim is None:
-                out[i] = FAILED_RESIDUAL
-                continue
-            if eid not in per_event:
-                per_event[eid] = _event_residuals(sim, self.tgt[eid], self.resolution)
-            out[i] = per_event[eid].get(key, FAILED_RESIDUAL)
-        return out
-
-    def table(self, r: np.ndarray) -> pd.DataFrame:
-        df = pd.DataFrame(index=[ev.id for ev in self.camp.events])
-        for (eid, key), v in zip(self.pairs, r, strict=True):
-            df.loc[eid, key] = v
-        return df
+def _residuals(obj: CampaignEvaluator, values: Mapping[str, float]) -> np.ndarray:
+    """The campaign's standardised residuals with ``values`` overriding the base model."""
+    change = ModelChange(overrides={k: float(v) for k, v in values.items()})
+    return obj.residuals(tuple(sorted(change.overrides.items())), change)
 
 
 def calibration_cost(
@@ -216,16 +141,15 @@ def calibration_cost(
     -------
     (float, pandas.DataFrame)
         The soft-L1 cost ``sum 2 (sqrt(1 + r^2) - 1)`` of the standardised residuals, and the
-        residuals (events x feature keys; a failed run gives ``FAILED_RESIDUAL``).
+        residuals (events x feature keys; a failed run gives :data:`vadsim.compare.FAILED_RESIDUAL`).
     """
     camp = load_any_campaign(campaign)
-    preset = preset or campaign_preset(camp)
-    make_params({**preset.params, **(overrides or {}), **values})  # names checked first
-    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
-        obj = _Objective(camp, preset, targets, keys, resolution, overrides, cycles,
-                         analyse_cycles, pool)
-        r = obj.residuals({k: float(v) for k, v in values.items()})
-    return _soft_l1(r), obj.table(r)
+    settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},
+                           cycles=cycles, analyse_cycles=analyse_cycles)
+    make_params(settings.preset, {**settings.overrides, **values})  # names checked first
+    with _objective(camp, settings, targets, keys, resolution, workers) as obj:
+        r = _residuals(obj, values)
+        return _soft_l1(r), obj.table(r)
 
 
 @dataclass
@@ -304,7 +228,8 @@ def calibrate(
     campaign
         A campaign (folder, TOML, ``"thesis:7in-cde"``...) or a loaded :class:`Campaign`.
     names
-        Parameters to fit (Table 2.1 names, ``l0``, ``wob``...).
+        Parameters to fit (Table 2.1 names, ``l0``, ``wob``...; ``wob_n_per_kg`` is ``wob``,
+        the weight on bit per unit reference mass, N/kg).
     bounds
         Search range per name (defaults: :data:`DEFAULT_BOUNDS`, else 0.5x-2x the start).
     start
@@ -347,258 +272,322 @@ def calibrate(
         ``stderr`` from the Jacobian of the standardised residuals at the optimum
         (``cov = s^2 (J^T J)^-1``, ``s^2`` the residual variance).
     """
-    from scipy.optimize import differential_evolution, least_squares
-
     camp = load_any_campaign(campaign)
-    preset = preset or campaign_preset(camp)
-    if resolution not in ("sensor", "full"):
-        raise ValueError(f"resolution = {resolution!r} must be 'sensor' or 'full'")
-    names = list(names)
+    settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},
+                           cycles=cycles, analyse_cycles=analyse_cycles)
+    names = [canonical_name(n) for n in names]
+    bounds = {canonical_name(k): v for k, v in (bounds or {}).items()}
+    start = {canonical_name(k): v for k, v in (start or {}).items()}
+    x0, lim = _start_and_bounds(settings, names, bounds, start)
+    options: dict[str, Any] = dict(global_stage=global_stage, n_global=n_global, n_starts=n_starts,
+                   alias_stripes=alias_stripes, alias_grid=alias_grid,
+                   alias_refine=alias_refine, max_alias_rounds=max_alias_rounds,
+                   max_nfev=max_nfev, popsize=popsize, maxiter=maxiter, seed=seed)
+    with _objective(camp, settings, targets, keys, resolution, workers) as obj:
+        fit = _Calibration(obj, names, x0, lim, callback, **options)
+        result = fit.run(profile_points)
+    result.settings = dict(targets=targets if isinstance(targets, str) else "custom",
+                           resolution=resolution, keys=list(keys) if keys else None,
+                           bounds={n: list(lim[n]) for n in names}, cycles=cycles,
+                           analyse_cycles=analyse_cycles, **options)
+    return result
+
+
+def _start_and_bounds(settings: RunSettings, names: list[str],
+                      bounds: Mapping[str, tuple[float, float]] | None,
+                      start: Mapping[str, float] | None
+                      ) -> tuple[dict[str, float], dict[str, tuple[float, float]]]:
+    """Checked starting values and search ranges of the fitted parameters."""
     if not names:
         raise ValueError("names is empty: nothing to calibrate")
-    base = {**preset.params, **(overrides or {})}
+    base = {**settings.preset.params, **settings.overrides}
     make_params(base)  # every name and override checked before any run
     for n in names:
         if n not in base:
             raise ValueError(f"unknown parameter {n!r}")
     x0 = {n: float((start or {}).get(n, base[n])) for n in names}
-    lim = {}
+    lim: dict[str, tuple[float, float]] = {}
     for n in names:
         if bounds and n in bounds:
-            lim[n] = tuple(float(v) for v in bounds[n])
+            lo, hi = (float(v) for v in bounds[n])
         elif n in DEFAULT_BOUNDS:
-            lim[n] = DEFAULT_BOUNDS[n]
+            lo, hi = DEFAULT_BOUNDS[n]
         else:
-            lim[n] = (0.5 * x0[n], 2.0 * x0[n]) if x0[n] > 0 else (2.0 * x0[n], 0.5 * x0[n])
-        lo, hi = lim[n]
+            lo, hi = (0.5 * x0[n], 2.0 * x0[n]) if x0[n] > 0 else (2.0 * x0[n], 0.5 * x0[n])
+        lim[n] = (lo, hi)
         if not (lo < hi):
             raise ValueError(f"bounds of {n}: {lim[n]} must have lo < hi")
         if not (lo <= x0[n] <= hi):
             raise ValueError(f"start {n} = {x0[n]} is outside its bounds {lim[n]}")
+    return x0, lim
 
-    evals = [0]
-    history: list[dict[str, float]] = []
-    pool = ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1)
-    try:
-        obj = _Objective(camp, preset, targets, keys, resolution, overrides, cycles,
-                         analyse_cycles, pool)
-    except ValueError:
-        pool.shutdown(wait=True)
-        raise
 
-    def residuals(values: Mapping[str, float]) -> np.ndarray:
-        out = obj.residuals(values)
-        evals[0] += 1
-        history.append({**values, "cost": _soft_l1(out)})
+def _grid1(lo: float, hi: float, num: int) -> np.ndarray:
+    """A 1-D grid, log-spaced when the range spans 4x or more."""
+    if lo > 0 and hi / lo >= 4:
+        return np.geomspace(lo, hi, num)
+    return np.linspace(lo, hi, num)
+
+
+class _Calibration:
+    """One calibration: its evaluations, the global stage, the local polish, the search of
+    l0's phase-alias stripes and the uncertainty at the optimum (see :func:`calibrate`)."""
+
+    def __init__(self, obj: CampaignEvaluator, names: list[str], x0: dict[str, float],
+                 lim: dict[str, tuple[float, float]], callback, *, global_stage, n_global: int,
+                 n_starts: int, alias_stripes: int, alias_grid: int, alias_refine: int,
+                 max_alias_rounds: int, max_nfev: int, popsize: int, maxiter: int,
+                 seed: int) -> None:
+        if global_stage not in ("scan", True, "de", False):
+            raise ValueError(f"global_stage = {global_stage!r} must be 'scan', 'de' or False")
+        self.obj, self.names, self.x0, self.lim, self.callback = obj, names, x0, lim, callback
+        self.global_stage, self.n_global, self.n_starts = global_stage, n_global, n_starts
+        self.alias_stripes, self.alias_grid = alias_stripes, alias_grid
+        self.alias_refine, self.max_alias_rounds = alias_refine, max_alias_rounds
+        self.max_nfev, self.popsize, self.maxiter, self.seed = max_nfev, popsize, maxiter, seed
+        self.evals = 0
+        self.history: list[dict[str, float]] = []
+        self.scale = np.array([hi - lo for lo, hi in (lim[n] for n in names)])
+        self.lo_u = np.array([lim[n][0] for n in names]) / self.scale
+        self.hi_u = np.array([lim[n][1] for n in names]) / self.scale
+
+    # -- evaluations
+    def residuals(self, values: Mapping[str, float]) -> np.ndarray:
+        out = _residuals(self.obj, values)
+        self.evals += 1
+        self.history.append({**values, "cost": _soft_l1(out)})
         return out
 
-    table = obj.table
+    def cost(self, stage: str, values: dict[str, float]) -> float:
+        c = _soft_l1(self.residuals(values))
+        if self.callback:
+            self.callback(stage, self.evals, c, values)
+        return c
 
-    t0 = time.perf_counter()
-    try:
-        r_before = residuals(x0)
-        scale = np.array([hi - lo for lo, hi in (lim[n] for n in names)])
-        lo_u = np.array([lim[n][0] for n in names]) / scale
-        hi_u = np.array([lim[n][1] for n in names]) / scale
+    def _values(self, x: np.ndarray) -> dict[str, float]:
+        return dict(zip(self.names, (float(v) for v in x), strict=True))
 
-        def g(u: np.ndarray) -> np.ndarray:
-            vals = dict(zip(names, (float(v) for v in u * scale), strict=True))
-            r = residuals(vals)
-            if callback:
-                callback("local", evals[0], _soft_l1(r), vals)
-            return r
+    def _g(self, u: np.ndarray) -> np.ndarray:
+        vals = self._values(u * self.scale)
+        r = self.residuals(vals)
+        if self.callback:
+            self.callback("local", self.evals, _soft_l1(r), vals)
+        return r
 
-        def polish(x: Mapping[str, float]):
-            u0 = np.clip(np.array([x[n] for n in names]) / scale, lo_u, hi_u)
-            return least_squares(g, u0, bounds=(lo_u, hi_u), loss="soft_l1", diff_step=1e-3,
-                                 max_nfev=max_nfev, x_scale=1.0)
+    def polish(self, x: Mapping[str, float]):
+        from scipy.optimize import least_squares
 
-        def alias_search(ls):
-            # l0 enters the excitation F_H = Fo cos(w t + phi) sin(beta (x2 - x3) + psi) through
-            # the static anvil-housing distance x2 - x3 ~ (L3 - LI - LOn) l0. A shift of the
-            # phase by pi flips the sign of F_H, which is the same as shifting time by half an
-            # excitation cycle, and a recording's time origin is arbitrary: steady features
-            # repeat every half period pi / (beta (L3 - LI - LOn)) of l0 (0.0083 m for the 7in
-            # tool, 1.2 % of l0), up to the small change of the gaps, which scale with l0.
-            # Each such stripe is a valley under 0.001 m wide along which the other parameters
-            # (wob) move freely, and its cost in them is rough (regime changes), so a local
-            # polish from a neighbouring stripe keeps the other parameters where they were.
-            # Scan instead: on each of the 2 alias_stripes + 1 stripes around the best fit,
-            # a coarse grid of the other parameters, then a finer one around the best cells,
-            # then polish the best distinct points.
-            best = dict(zip(names, (float(v) for v in ls.x * scale), strict=True))
-            p0 = {**base, **best}
-            half = math.pi / (abs(p0["beta"]) * (p0["L3"] - p0["LI"] - p0["LOn"]))
-            others = [n for n in names if n != "l0"]
+        u0 = np.clip(np.array([x[n] for n in self.names]) / self.scale, self.lo_u, self.hi_u)
+        return least_squares(self._g, u0, bounds=(self.lo_u, self.hi_u), loss="soft_l1",
+                             diff_step=1e-3, max_nfev=self.max_nfev, x_scale=1.0)
 
-            def stripe(k: int) -> float:
-                return best["l0"] + k * half
+    # -- the stages
+    def global_starts(self) -> list[dict[str, float]]:
+        """Starting points of the local polish from the global stage."""
+        if self.global_stage in ("scan", True):
+            return self._scan_starts()
+        if self.global_stage == "de":
+            return [self._de()]
+        return [dict(self.x0)]
 
-            def in_bounds(k: int) -> bool:
-                return lim["l0"][0] <= stripe(k) <= lim["l0"][1]
+    def _scan_starts(self) -> list[dict[str, float]]:
+        from scipy.stats import qmc
 
-            def grid1(lo: float, hi: float, num: int) -> np.ndarray:
-                if lo > 0 and hi / lo >= 4:
-                    return np.geomspace(lo, hi, num)
-                return np.linspace(lo, hi, num)
+        names, lim = self.names, self.lim
+        # Sobol' points balance only in powers of two: round n_global up to one.
+        m = max(1, math.ceil(math.log2(max(self.n_global, 2))))
+        pts = qmc.Sobol(d=len(names), scramble=True, seed=self.seed).random_base2(m)
+        scored = []
+        for u in pts:
+            vals = {n: lim[n][0] + float(ui) * (lim[n][1] - lim[n][0])
+                    for n, ui in zip(names, u, strict=True)}
+            scored.append((self.cost("global", vals), vals))
+        scored.sort(key=lambda cv: cv[0])
+        # Distinct starts: at least 2 % of the range apart in some parameter.
+        starts: list[dict[str, float]] = []
+        for _, vals in scored:
+            if len(starts) >= self.n_starts:
+                break
+            if all(max(abs(vals[n] - c[n]) / (lim[n][1] - lim[n][0]) for n in names) > 0.02
+                   for c in starts):
+                starts.append(vals)
+        return starts
 
-            scored: list[tuple[float, dict[str, float]]] = []
-            by_stripe: dict[int, float] = {}
+    def _de(self) -> dict[str, float]:
+        from scipy.optimize import differential_evolution
 
-            def score(k: int, vals: dict[str, float]) -> None:
-                c = _soft_l1(residuals(vals))
-                scored.append((c, vals))
-                by_stripe[k] = min(by_stripe.get(k, math.inf), c)
-                if callback:
-                    callback("alias", evals[0], c, vals)
+        de = differential_evolution(
+            lambda x: self.cost("global", self._values(x)), [self.lim[n] for n in self.names],
+            popsize=self.popsize, maxiter=self.maxiter, seed=self.seed, polish=False,
+            init="sobol", tol=0.0, updating="deferred",
+            x0=np.array([self.x0[n] for n in self.names]),
+        )
+        return self._values(de.x)
 
-            if len(others) == 1:
-                coarse = grid1(*lim[others[0]], alias_grid)
-                others_grid = [{others[0]: float(w)} for w in coarse]
-            elif others:
-                from scipy.stats import qmc
+    def alias_search(self, ls):
+        """Search l0's phase-alias stripes around the best fit ``ls``.
 
-                m = max(1, math.ceil(math.log2(max(alias_grid * len(others), 2))))
-                pts = qmc.Sobol(d=len(others), scramble=True, seed=seed + 1).random_base2(m)
-                others_grid = [{n: lim[n][0] + float(ui) * (lim[n][1] - lim[n][0])
-                                for n, ui in zip(others, u, strict=True)} for u in pts]
-            else:
-                others_grid = [{}]
+        l0 enters the excitation F_H = Fo cos(w t + phi) sin(beta (x2 - x3) + psi) through the
+        static anvil-housing distance x2 - x3 ~ (L3 - LI - LOn) l0. A shift of the phase by pi
+        flips the sign of F_H, which is the same as shifting time by half an excitation cycle,
+        and a recording's time origin is arbitrary: steady features repeat every half period
+        pi / (beta (L3 - LI - LOn)) of l0 (0.0083 m for the 7in tool, 1.2 % of l0), up to the
+        small change of the gaps, which scale with l0. Each such stripe is a valley under
+        0.001 m wide along which the other parameters (wob) move freely, and its cost in them
+        is rough (regime changes), so a local polish from a neighbouring stripe keeps the
+        other parameters where they were. Scan instead: on each of the 2 alias_stripes + 1
+        stripes around the best fit, a coarse grid of the other parameters, then a finer one
+        around the best cells, then polish the best distinct points.
+        """
+        stripes = _AliasStripes(self, self._values(ls.x * self.scale))
+        stripes.walk()
+        stripes.refine()
+        for cand in stripes.starts():
+            fit = self.polish(cand)
+            if fit.cost < ls.cost:
+                ls = fit
+        return ls
 
-            def scan_stripes(ks) -> None:
-                for k in ks:
-                    if k not in by_stripe and in_bounds(k):
-                        for ov in others_grid:
-                            score(k, {"l0": stripe(k), **ov})
-
-            # The fit of the stripes trends over many of them (the gaps scale with l0), so
-            # walk: while the best stripe is at an end of those scanned, scan further.
-            scan_stripes(range(-alias_stripes, alias_stripes + 1))
-            for _ in range(max_alias_rounds):
-                if not by_stripe:
-                    break
-                k_best = min(by_stripe, key=by_stripe.__getitem__)
-                lo_k, hi_k = min(by_stripe), max(by_stripe)
-                new: list[int] = []
-                if k_best >= hi_k - 1 and in_bounds(hi_k + 1):
-                    new += range(hi_k + 1, hi_k + alias_stripes + 1)
-                if k_best <= lo_k + 1 and in_bounds(lo_k - 1):
-                    new += range(lo_k - alias_stripes, lo_k)
-                if not new:
-                    break
-                scan_stripes(new)
-            if len(others) == 1:
-                # Finer: +-1 coarse step around the best cells of the n_starts best stripes.
-                (o,) = others
-                done: list[float] = []
-                for _, vals in sorted(scored, key=lambda cv: cv[0]):
-                    if len(done) >= n_starts:
-                        break
-                    if any(abs(vals["l0"] - v) < 0.5 * half for v in done):
-                        continue
-                    done.append(vals["l0"])
-                    i = int(np.argmin(np.abs(coarse - vals[o])))
-                    fine = grid1(coarse[max(i - 1, 0)], coarse[min(i + 1, coarse.size - 1)],
-                                 alias_refine)
-                    k = round((vals["l0"] - best["l0"]) / half)
-                    for w in fine:
-                        if not np.any(np.isclose(w, coarse)):
-                            score(k, {"l0": vals["l0"], o: float(w)})
-            ranked = sorted(scored, key=lambda cv: cv[0])
-            starts: list[dict[str, float]] = []
-            for _, vals in ranked:
-                if len(starts) >= n_starts:
-                    break
-                if all(abs(vals["l0"] - c["l0"]) > 0.5 * half or any(
-                        abs(vals[n] - c[n]) > 0.02 * (lim[n][1] - lim[n][0]) for n in others)
-                       for c in starts):
-                    starts.append(vals)
-            for cand in starts:
-                fit = polish(cand)
-                if fit.cost < ls.cost:
-                    ls = fit
-            return ls
-
-        candidates: list[dict[str, float]] = [dict(x0)]
-        if global_stage in ("scan", True):
-            from scipy.stats import qmc
-
-            # Sobol' points balance only in powers of two: round n_global up to one.
-            m = max(1, math.ceil(math.log2(max(n_global, 2))))
-            pts = qmc.Sobol(d=len(names), scramble=True, seed=seed).random_base2(m)
-            scored = []
-            for u in pts:
-                vals = {n: lim[n][0] + float(ui) * (lim[n][1] - lim[n][0])
-                        for n, ui in zip(names, u, strict=True)}
-                c = _soft_l1(residuals(vals))
-                scored.append((c, vals))
-                if callback:
-                    callback("global", evals[0], c, vals)
-            scored.sort(key=lambda cv: cv[0])
-            # Distinct starts: at least 2 % of the range apart in some parameter.
-            for _, vals in scored:
-                if len(candidates) > n_starts:
-                    break
-                if all(max(abs(vals[n] - c[n]) / (lim[n][1] - lim[n][0]) for n in names) > 0.02
-                       for c in candidates[1:]):
-                    candidates.append(vals)
-            candidates = candidates[1:]
-        elif global_stage == "de":
-            def f(x: np.ndarray) -> float:
-                vals = dict(zip(names, (float(v) for v in x), strict=True))
-                c = _soft_l1(residuals(vals))
-                if callback:
-                    callback("global", evals[0], c, vals)
-                return c
-
-            de = differential_evolution(
-                f, [lim[n] for n in names], popsize=popsize, maxiter=maxiter, seed=seed,
-                polish=False, init="sobol", tol=0.0, updating="deferred",
-                x0=np.array([x0[n] for n in names]),
-            )
-            candidates = [dict(zip(names, (float(v) for v in de.x), strict=True))]
-        elif global_stage is not False:
-            raise ValueError(f"global_stage = {global_stage!r} must be 'scan', 'de' or False")
-        fits = [polish(c) for c in candidates]
-        ls = min(fits, key=lambda fr: fr.cost)
-        if "l0" in names and alias_stripes > 0:
-            ls = alias_search(ls)
-        # least_squares only accepts steps that lower its cost, so the polished point is never
-        # worse than its start, and ls.fun already holds its residuals: no re-evaluation.
-        est = dict(zip(names, (float(v) for v in ls.x * scale), strict=True))
-        r_after = np.asarray(ls.fun, dtype=float)
-        # Uncertainty from the local Jacobian (in parameter units).
-        jac = ls.jac / scale
+    def uncertainty(self, ls) -> dict[str, float]:
+        """Standard errors from the local Jacobian (in parameter units)."""
+        jac = ls.jac / self.scale
         m, n = jac.shape
-        dof = max(m - n, 1)
-        s2 = float(np.sum(r_after ** 2)) / dof
+        r = np.asarray(ls.fun, dtype=float)
+        s2 = float(np.sum(r ** 2)) / max(m - n, 1)
         try:
             cov = np.linalg.pinv(jac.T @ jac) * s2
-            stderr = {nm: float(math.sqrt(max(cov[i, i], 0.0))) for i, nm in enumerate(names)}
+            return {nm: float(math.sqrt(max(cov[i, i], 0.0))) for i, nm in enumerate(self.names)}
         except np.linalg.LinAlgError:
-            stderr = {nm: math.nan for nm in names}
-        profile: dict[str, pd.DataFrame] = {}
-        if profile_points > 0:
-            for nm in names:
-                width = max(3 * stderr[nm], 0.02 * abs(est[nm])) if math.isfinite(
-                    stderr[nm]) else 0.05 * abs(est[nm])
-                grid = np.linspace(max(lim[nm][0], est[nm] - width),
-                                   min(lim[nm][1], est[nm] + width), profile_points)
-                costs = [_soft_l1(residuals({**est, nm: float(v)})) for v in grid]
-                profile[nm] = pd.DataFrame({nm: grid, "cost": costs})
-    finally:
-        pool.shutdown(wait=True)
-    return CalibrationResult(
-        names=names, start=x0, estimates=est, stderr=stderr,
-        cost_before=_soft_l1(r_before), cost_after=_soft_l1(r_after),
-        residuals_before=table(r_before), residuals_after=table(r_after),
-        history=pd.DataFrame(history), profile=profile, seconds=time.perf_counter() - t0,
-        evaluations=evals[0],
-        settings=dict(targets=targets if isinstance(targets, str) else "custom",
-                      resolution=resolution, keys=list(keys) if keys else None,
-                      bounds={n: list(lim[n]) for n in names}, popsize=popsize,
-                      maxiter=maxiter, seed=seed, cycles=cycles, analyse_cycles=analyse_cycles,
-                      global_stage=global_stage, alias_stripes=alias_stripes,
-                      alias_grid=alias_grid, alias_refine=alias_refine,
-                      max_alias_rounds=max_alias_rounds, max_nfev=max_nfev),
-    )
+            return {nm: math.nan for nm in self.names}
+
+    def profile(self, est: dict[str, float], stderr: dict[str, float], points: int
+                ) -> dict[str, pd.DataFrame]:
+        """The cost along each parameter, the others at the optimum."""
+        out: dict[str, pd.DataFrame] = {}
+        for nm in self.names:
+            width = max(3 * stderr[nm], 0.02 * abs(est[nm])) if math.isfinite(
+                stderr[nm]) else 0.05 * abs(est[nm])
+            grid = np.linspace(max(self.lim[nm][0], est[nm] - width),
+                               min(self.lim[nm][1], est[nm] + width), points)
+            costs = [_soft_l1(self.residuals({**est, nm: float(v)})) for v in grid]
+            out[nm] = pd.DataFrame({nm: grid, "cost": costs})
+        return out
+
+    def run(self, profile_points: int) -> CalibrationResult:
+        t0 = time.perf_counter()
+        r_before = self.residuals(self.x0)
+        fits = [self.polish(c) for c in self.global_starts()]
+        ls = min(fits, key=lambda fr: fr.cost)
+        if "l0" in self.names and self.alias_stripes > 0:
+            ls = self.alias_search(ls)
+        # least_squares only accepts steps that lower its cost, so the polished point is never
+        # worse than its start, and ls.fun already holds its residuals: no re-evaluation.
+        est = self._values(ls.x * self.scale)
+        r_after = np.asarray(ls.fun, dtype=float)
+        stderr = self.uncertainty(ls)
+        prof = self.profile(est, stderr, profile_points) if profile_points > 0 else {}
+        return CalibrationResult(
+            names=self.names, start=self.x0, estimates=est, stderr=stderr,
+            cost_before=_soft_l1(r_before), cost_after=_soft_l1(r_after),
+            residuals_before=self.obj.table(r_before), residuals_after=self.obj.table(r_after),
+            history=pd.DataFrame(self.history), profile=prof,
+            seconds=time.perf_counter() - t0, evaluations=self.evals,
+        )
+
+
+class _AliasStripes:
+    """The scan of l0's phase-alias stripes (:meth:`_Calibration.alias_search`)."""
+
+    def __init__(self, cal: _Calibration, best: dict[str, float]) -> None:
+        self.cal, self.best = cal, best
+        p0 = {**cal.obj.settings.preset.params, **cal.obj.settings.overrides, **best}
+        self.half = math.pi / (abs(p0["beta"]) * (p0["L3"] - p0["LI"] - p0["LOn"]))
+        self.others = [n for n in cal.names if n != "l0"]
+        self.scored: list[tuple[float, dict[str, float]]] = []
+        self.by_stripe: dict[int, float] = {}
+        self.coarse = np.empty(0)
+        self.grid = self._others_grid()
+
+    def stripe(self, k: int) -> float:
+        return self.best["l0"] + k * self.half
+
+    def in_bounds(self, k: int) -> bool:
+        lo, hi = self.cal.lim["l0"]
+        return lo <= self.stripe(k) <= hi
+
+    def _others_grid(self) -> list[dict[str, float]]:
+        cal, others = self.cal, self.others
+        if len(others) == 1:
+            self.coarse = _grid1(*cal.lim[others[0]], cal.alias_grid)
+            return [{others[0]: float(w)} for w in self.coarse]
+        if not others:
+            return [{}]
+        from scipy.stats import qmc
+
+        m = max(1, math.ceil(math.log2(max(cal.alias_grid * len(others), 2))))
+        pts = qmc.Sobol(d=len(others), scramble=True, seed=cal.seed + 1).random_base2(m)
+        return [{n: cal.lim[n][0] + float(ui) * (cal.lim[n][1] - cal.lim[n][0])
+                 for n, ui in zip(others, u, strict=True)} for u in pts]
+
+    def score(self, k: int, vals: dict[str, float]) -> None:
+        c = self.cal.cost("alias", vals)
+        self.scored.append((c, vals))
+        self.by_stripe[k] = min(self.by_stripe.get(k, math.inf), c)
+
+    def scan(self, ks) -> None:
+        for k in ks:
+            if k not in self.by_stripe and self.in_bounds(k):
+                for ov in self.grid:
+                    self.score(k, {"l0": self.stripe(k), **ov})
+
+    def walk(self) -> None:
+        """Scan the stripes around the best fit; the fit of the stripes trends over many of
+        them (the gaps scale with l0), so while the best stripe is at an end of those scanned,
+        scan further."""
+        n = self.cal.alias_stripes
+        self.scan(range(-n, n + 1))
+        for _ in range(self.cal.max_alias_rounds):
+            if not self.by_stripe:
+                break
+            k_best = min(self.by_stripe, key=self.by_stripe.__getitem__)
+            lo_k, hi_k = min(self.by_stripe), max(self.by_stripe)
+            new: list[int] = []
+            if k_best >= hi_k - 1 and self.in_bounds(hi_k + 1):
+                new += range(hi_k + 1, hi_k + n + 1)
+            if k_best <= lo_k + 1 and self.in_bounds(lo_k - 1):
+                new += range(lo_k - n, lo_k)
+            if not new:
+                break
+            self.scan(new)
+
+    def refine(self) -> None:
+        """Finer: +-1 coarse step around the best cells of the n_starts best stripes."""
+        if len(self.others) != 1:
+            return
+        (o,) = self.others
+        coarse, done = self.coarse, list[float]()
+        for _, vals in sorted(self.scored, key=lambda cv: cv[0]):
+            if len(done) >= self.cal.n_starts:
+                break
+            if any(abs(vals["l0"] - v) < 0.5 * self.half for v in done):
+                continue
+            done.append(vals["l0"])
+            i = int(np.argmin(np.abs(coarse - vals[o])))
+            fine = _grid1(coarse[max(i - 1, 0)], coarse[min(i + 1, coarse.size - 1)],
+                          self.cal.alias_refine)
+            k = round((vals["l0"] - self.best["l0"]) / self.half)
+            for w in fine:
+                if not np.any(np.isclose(w, coarse)):
+                    self.score(k, {"l0": vals["l0"], o: float(w)})
+
+    def starts(self) -> list[dict[str, float]]:
+        """The n_starts best distinct points."""
+        lim, out = self.cal.lim, list[dict[str, float]]()
+        for _, vals in sorted(self.scored, key=lambda cv: cv[0]):
+            if len(out) >= self.cal.n_starts:
+                break
+            if all(abs(vals["l0"] - c["l0"]) > 0.5 * self.half or any(
+                    abs(vals[n] - c[n]) > 0.02 * (lim[n][1] - lim[n][0]) for n in self.others)
+                   for c in out):
+                out.append(vals)
+        return out

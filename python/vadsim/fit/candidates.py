@@ -51,7 +51,8 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from vadsim.model.simulate import extra_force
+from vadsim.compare import ModelChange
+from vadsim.model.settings import ExtraSpec
 
 __all__ = ["CANDIDATES", "Candidate", "ModelChange", "ParamSpec", "candidate", "candidate_ids"]
 
@@ -87,16 +88,6 @@ class ParamSpec:
         if self.scale == "log":
             return float(math.exp(math.log(self.lo) + u * (math.log(self.hi) - math.log(self.lo))))
         return float(self.lo + u * (self.hi - self.lo))
-
-
-@dataclass
-class ModelChange:
-    """What a candidate with given values does: to the run and to the measurement."""
-
-    extras: list[Any] = field(default_factory=list)
-    law: str | None = None
-    overrides: dict[str, float] = field(default_factory=dict)
-    measurement: Callable[[str, np.ndarray, float], np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -198,7 +189,7 @@ def _hydraulic(acts_on: str) -> Candidate:
         side="model",
         signature=(f"c Q^2 on the {acts_on} towards the rock: grows with flow squared, so it "
                    "leaves low flows untouched and changes peaks and regimes at high flow."),
-        build=lambda v: ModelChange(extras=[extra_force("hydraulic", acts_on=acts_on, c=v["c"])]
+        build=lambda v: ModelChange(extras=[ExtraSpec.of("hydraulic", acts_on=acts_on, c=v["c"])]
                                     if v["c"] > 0 else []),
         fixed={"acts_on": acts_on},
     )
@@ -225,7 +216,7 @@ def _friction() -> Candidate:
         side="model",
         signature=("Coulomb friction between anvil and housing: removes energy per unit "
                    "stroke, so it shortens or stops weak strokes (regimes, low-flow peaks)."),
-        build=lambda v: ModelChange(extras=[extra_force("friction", body="anvil",
+        build=lambda v: ModelChange(extras=[ExtraSpec.of("friction", body="anvil",
                                                         other="housing", force=v["force"])]
                                     if v["force"] > 0 else []),
     )
@@ -238,7 +229,7 @@ def _radiation() -> Candidate:
         side="model",
         signature=("A dashpot from the MWD to the ground (the string's impedance): damps the "
                    "upper string's ringing, seen above the motor more than at the bit."),
-        build=lambda v: ModelChange(extras=[extra_force("dashpot", body="mwd", k=0.0, c=v["c"])]
+        build=lambda v: ModelChange(extras=[ExtraSpec.of("dashpot", body="mwd", k=0.0, c=v["c"])]
                                     if v["c"] > 0 else []),
     )
 

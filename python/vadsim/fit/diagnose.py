@@ -36,8 +36,8 @@ import math
 import multiprocessing as mp
 import os
 import time
-from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from collections.abc import Callable, Hashable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -45,19 +45,12 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
+from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
+from vadsim.compare import CampaignEvaluator, EventEval, ModelChange
 from vadsim.fit.candidates import CANDIDATES, Candidate, keys_for
 from vadsim.fit.locate import Mismatch, locate
-from vadsim.fit.validate import (
-    campaign_preset,
-    event_residuals,
-    load_any_campaign,
-    measure_event,
-    recorded_features,
-    run_event,
-)
 from vadsim.model.presets import Preset
-from vadsim.model.simulate import SimulationResult, SolverError
-from vadsim.campaigns import Campaign
+from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
 
 __all__ = ["CandidateFit", "Diagnosis", "diagnose", "fmt_value", "make_folds", "predict"]
@@ -69,103 +62,41 @@ FAILED_RESIDUAL = 10.0
 
 # ------------------------------------------------------------------------------ evaluation
 
-@dataclass
-class _EventEval:
-    z: np.ndarray            # standardised residuals, aligned with the event's feature keys
-    sim: np.ndarray          # simulated feature values, same order
+Point = tuple[float, ...]
 
 
-class _Evaluator:
-    """Standardised residuals of every event for a candidate and values, cached.
+class _CandidateCosts:
+    """A candidate's evaluations on the comparison engine, by parameter point; remembers the
+    points evaluated on every event (for the profile interval and the folds)."""
 
-    Base runs are kept, so measurement-side candidates only re-measure."""
+    def __init__(self, ev: CampaignEvaluator, cand: Candidate | None, eids: list[str]) -> None:
+        self.ev, self.cand, self.eids = ev, cand, eids
+        self.points: dict[Point, None] = {}
 
-    def __init__(self, campaign: Campaign, preset: Preset, overrides: Mapping[str, float],
-                 cycles: float, analyse_cycles: float, phases: int, workers: int) -> None:
-        self.campaign = campaign
-        self.preset = preset
-        self.overrides = dict(overrides)
-        self.cycles = cycles
-        self.analyse_cycles = analyse_cycles
-        self.phases = phases
-        self.workers = workers
-        self.events = {ev.id: ev for ev in campaign.events}
-        alpha = float(preset.params["alpha"])
-        self.recorded = {ev.id: recorded_features(campaign, ev, alpha * ev.flow_gpm / (2 * math.pi))
-                         for ev in campaign.events}
-        self.keys: dict[str, list[str]] = {}
-        self._runs: dict[str, SimulationResult | None] = {}
-        self._cache: dict[tuple, _EventEval] = {}
-        self.n_evals = 0
-        self.pool = ThreadPoolExecutor(max_workers=workers)
+    def _item(self, point: Point) -> tuple[Hashable, ModelChange | None]:
+        if self.cand is None:
+            return "base", None
+        names = [p.name for p in self.cand.params]
+        return (self.cand.key, point), self.cand.change(dict(zip(names, point, strict=True)))
 
-    def close(self) -> None:
-        self.pool.shutdown()
+    def evaluate(self, points: Sequence[Point], eids: Sequence[str] | None = None
+                 ) -> dict[tuple[Point, str], EventEval]:
+        """Evaluations of every (point, event), in parallel where not cached."""
+        eids = list(eids) if eids is not None else self.eids
+        items = {pt: self._item(pt) for pt in points}
+        got = self.ev.evaluate(list(items.values()), eids)
+        if set(eids) == set(self.eids):
+            self.points.update(dict.fromkeys(points))
+        return {(pt, e): got[(items[pt][0], e)] for pt in points for e in eids}
 
-    def _base_run(self, eid: str) -> SimulationResult | None:
-        if eid not in self._runs:
-            try:
-                self._runs[eid] = run_event(self.campaign, self.events[eid], preset=self.preset,
-                                            overrides=self.overrides, cycles=self.cycles,
-                                            analyse_cycles=self.analyse_cycles)
-            except SolverError:
-                self._runs[eid] = None
-        return self._runs[eid]
+    def rss(self, point: Point) -> float:
+        got = self.evaluate([point])
+        return float(sum(np.sum(got[(point, e)].z ** 2) for e in self.eids))
 
-    def _one(self, cand: Candidate | None, values: tuple[float, ...], eid: str) -> _EventEval:
-        ev = self.events[eid]
-        try:
-            if cand is None or cand.side == "measurement":
-                r = self._base_run(eid)
-                if r is None:
-                    raise SolverError("base run failed")
-                meas = None
-                if cand is not None:
-                    meas = cand.change(dict(zip((p.name for p in cand.params), values,
-                                                strict=True))).measurement
-                sim = measure_event(self.campaign, ev, r, phases=self.phases, measurement=meas)
-            else:
-                ch = cand.change(dict(zip((p.name for p in cand.params), values, strict=True)))
-                r = run_event(self.campaign, ev, preset=self.preset,
-                              overrides={**self.overrides, **ch.overrides}, extras=ch.extras,
-                              law=ch.law, cycles=self.cycles, analyse_cycles=self.analyse_cycles)
-                sim = measure_event(self.campaign, ev, r, phases=self.phases)
-        except SolverError:
-            sim = None
-        rec = self.recorded[eid]
-        if eid not in self.keys:  # the base model defines which features are compared
-            if sim is None:
-                raise RuntimeError(f"event {eid}: the base model's run failed; cannot diagnose")
-            self.keys[eid] = sorted(event_residuals(sim, rec))
-        keys = self.keys[eid]
-        if sim is None:
-            n = len(keys)
-            return _EventEval(np.full(n, FAILED_RESIDUAL), np.full(n, np.nan))
-        zd = event_residuals(sim, rec)
-        z = np.array([zd.get(k, FAILED_RESIDUAL) for k in keys])
-        vals = np.array([sim.sensor.get(k, Feature(math.nan, math.nan, 0)).value for k in keys])
-        return _EventEval(z, vals)
-
-    def evaluate(self, cand: Candidate | None, points: Sequence[tuple[float, ...]],
-                 eids: Sequence[str]) -> dict[tuple[tuple[float, ...], str], _EventEval]:
-        """Evaluations of every (point, event), run in parallel where not cached."""
-        key = cand.key if cand is not None else "none"
-        # the base model's runs first: they define which features are compared
-        missing = [e for e in eids if e not in self.keys]
-        base = {e: self.pool.submit(self._one, None, (), e) for e in missing}
-        for e, f in base.items():
-            self._cache[("none", (), e)] = f.result()
-            self.n_evals += 1
-        todo = [(p, e) for p in points for e in eids if (key, p, e) not in self._cache]
-        futures = {(p, e): self.pool.submit(self._one, cand, p, e) for p, e in todo}
-        for (p, e), f in futures.items():
-            self._cache[(key, p, e)] = f.result()
-            self.n_evals += 1
-        return {(p, e): self._cache[(key, p, e)] for p in points for e in eids}
-
-    def rss(self, cand: Candidate | None, point: tuple[float, ...], eids: Sequence[str]) -> float:
-        ev = self.evaluate(cand, [point], eids)
-        return float(sum(np.sum(ev[(point, e)].z ** 2) for e in eids))
+    def event_rss(self, points: Sequence[Point]) -> np.ndarray:
+        """Points x events sums of squared residuals."""
+        got = self.evaluate(points)
+        return np.array([[np.sum(got[(p, e)].z ** 2) for e in self.eids] for p in points])
 
 
 # ---------------------------------------------------------------------------------- results
@@ -389,116 +320,127 @@ def _aicc(n: int, mse: float, k: int) -> float:
     return n * math.log(mse) + pen
 
 
-def _fit_candidate(ev: _Evaluator, cand: Candidate | None, folds, eids: list[str],
-                   progress: Callable[[str], None]) -> CandidateFit:
-    t0 = time.perf_counter()
-    ev.evaluate(None, [()], eids)
-    n = sum(len(ev.keys[e]) for e in eids)
-    if cand is None:
-        base = ev.evaluate(None, [()], eids)
-        rss = float(sum(np.sum(base[((), e)].z ** 2) for e in eids))
-        points: list[tuple[float, ...]] = [()]
-        best: tuple[float, ...] = ()
-        interval: dict[str, tuple[float, float]] = {}
+def _refine(costs: _CandidateCosts, cand: Candidate, grid: list[Point], total: np.ndarray
+            ) -> tuple[float, Point]:
+    """Refine the best grid point: bounded Brent in 1-D, Nelder-Mead in 2-D."""
+    i = int(np.argmin(total))
+    u0 = _unit(cand, grid[i])
+
+    def cost(u: np.ndarray) -> float:
+        return costs.rss(_point(cand, np.clip(u, 0, 1)))
+
+    if len(cand.params) == 1:
+        du = 1.0 / (cand.params[0].grid - 1)
+        lo, hi = max(0.0, u0[0] - du), min(1.0, u0[0] + du)
+        r = optimize.minimize_scalar(lambda x: cost(np.array([x])), bounds=(lo, hi),
+                                     method="bounded", options={"xatol": du / 40, "maxiter": 10})
+        found = (float(r.fun), _point(cand, [r.x]))
     else:
-        grid = _grid(cand)
-        table = ev.evaluate(cand, grid, eids)
-        per_event = {e: np.array([np.sum(table[(p, e)].z ** 2) for p in grid]) for e in eids}
-        total = sum(per_event.values())
-        i = int(np.argmin(total))
-        u0 = _unit(cand, grid[i])
+        step = np.array([1.0 / (p.grid - 1) for p in cand.params])
+        simplex = np.clip(np.array([u0, u0 + [step[0] / 2, 0], u0 + [0, step[1] / 2]]), 0, 1)
+        r = optimize.minimize(cost, u0, method="Nelder-Mead",
+                              options={"initial_simplex": simplex, "maxfev": 24,
+                                       "xatol": 1e-3, "fatol": 1e-3})
+        found = (float(r.fun), _point(cand, np.clip(r.x, 0, 1)))
+    return min([found, (float(total[i]), grid[i])])
 
-        def cost(u: np.ndarray) -> float:
-            return ev.rss(cand, _point(cand, np.clip(u, 0, 1)), eids)
 
-        if len(cand.params) == 1:
-            du = 1.0 / (cand.params[0].grid - 1)
-            lo, hi = max(0.0, u0[0] - du), min(1.0, u0[0] + du)
-            r = optimize.minimize_scalar(lambda x: cost(np.array([x])), bounds=(lo, hi),
-                                         method="bounded",
-                                         options={"xatol": du / 40, "maxiter": 10})
-            cands = [(float(r.fun), _point(cand, [r.x])), (float(total[i]), grid[i])]
-        else:
-            step = np.array([1.0 / (p.grid - 1) for p in cand.params])
-            simplex = np.array([u0, u0 + [step[0] / 2, 0], u0 + [0, step[1] / 2]])
-            simplex = np.clip(simplex, 0, 1)
-            r = optimize.minimize(cost, u0, method="Nelder-Mead",
-                                  options={"initial_simplex": simplex, "maxfev": 24,
-                                           "xatol": 1e-3, "fatol": 1e-3})
-            cands = [(float(r.fun), _point(cand, np.clip(r.x, 0, 1))),
-                     (float(total[i]), grid[i])]
-        rss, best = min(cands)
-        # every point evaluated on all events, for the profile interval
-        points = [p for (kk, p, e) in ev._cache if kk == cand.key and e == eids[0]]
-        points = [p for p in dict.fromkeys(points)
-                  if all((cand.key, p, e) in ev._cache for e in eids)]
-        table = ev.evaluate(cand, points, eids)
-        event_rss = np.array([[np.sum(table[(p, e)].z ** 2) for e in eids] for p in points])
-        interval = _interval(cand, points, event_rss.sum(axis=1), n)
-    # held-out
-    held: dict[str, dict[str, float]] = {}
-    held_sim: dict[str, dict[str, float]] = {}
-    fold_values: dict[str, dict[str, float]] = {}
-    sq_lofo: list[np.ndarray] = []
-    sq_block: list[np.ndarray] = []
+def _fold_point(cand: Candidate | None, points: list[Point], train_cost: np.ndarray) -> Point:
+    """The fold's parameter: among the points evaluated on every event, the one with the lowest
+    training cost, refined in 1-D by the parabola through it and its neighbours."""
+    if cand is None:
+        return ()
+    if len(cand.params) == 1:
+        us = np.array([_unit(cand, p)[0] for p in points])
+        o = np.argsort(us)
+        return _point(cand, [_parabola_min(us[o], train_cost[o])])
+    return points[int(np.argmin(train_cost))]
+
+
+@dataclass
+class _Heldout:
+    held: dict[str, dict[str, float]] = field(default_factory=dict)
+    held_sim: dict[str, dict[str, float]] = field(default_factory=dict)
+    fold_values: dict[str, dict[str, float]] = field(default_factory=dict)
+    sq_lofo: list[np.ndarray] = field(default_factory=list)
+    sq_block: list[np.ndarray] = field(default_factory=list)
+
+
+def _score_folds(costs: _CandidateCosts, folds, points: list[Point],
+                 event_rss: np.ndarray) -> _Heldout:
+    """Refit on each fold's training events (choosing among evaluated points) and predict its
+    held-out events."""
+    cand, eids, ev = costs.cand, costs.eids, costs.ev
+    out = _Heldout()
     for name, train, test in folds:
-        if cand is None:
-            pt: tuple[float, ...] = ()
-        else:
-            # choose among the points evaluated on all events (the grid and the full fit's
-            # refinement) by the training events' cost alone
-            tc = event_rss[:, [eids.index(e) for e in train]].sum(axis=1)
-            if len(cand.params) == 1:
-                us = np.array([_unit(cand, p)[0] for p in points])
-                o = np.argsort(us)
-                pt = _point(cand, [_parabola_min(us[o], tc[o])])
-            else:
-                pt = points[int(np.argmin(tc))]
-            fold_values[name] = dict(zip((p.name for p in cand.params), pt, strict=True))
-        res = ev.evaluate(cand, [pt], test)
+        tc = (event_rss[:, [eids.index(e) for e in train]].sum(axis=1) if cand is not None
+              else np.empty(0))
+        pt = _fold_point(cand, points, tc)
+        if cand is not None:
+            out.fold_values[name] = dict(zip((p.name for p in cand.params), pt, strict=True))
+        res = costs.evaluate([pt], test)
         for e in test:
             z = res[(pt, e)].z
-            (sq_block if name.startswith("block") else sq_lofo).append(z ** 2)
+            (out.sq_block if name.startswith("block") else out.sq_lofo).append(z ** 2)
             if not name.startswith("block"):
-                held[e] = dict(zip(ev.keys[e], map(float, z), strict=True))
-                held_sim[e] = dict(zip(ev.keys[e], map(float, res[(pt, e)].sim), strict=True))
-    all_sq = np.concatenate(sq_lofo + sq_block)
+                out.held[e] = dict(zip(ev.keys[e], map(float, z), strict=True))
+                out.held_sim[e] = dict(zip(ev.keys[e], map(float, res[(pt, e)].values),
+                                           strict=True))
+    return out
+
+
+def _fit_candidate(ev: CampaignEvaluator, cand: Candidate | None, folds, eids: list[str],
+                   progress: Callable[[str], None]) -> CandidateFit:
+    t0 = time.perf_counter()
+    ev.base(eids)
+    n = sum(len(ev.keys[e]) for e in eids)
+    costs = _CandidateCosts(ev, cand, eids)
+    interval: dict[str, tuple[float, float]] = {}
+    if cand is None:
+        best: Point = ()
+        points: list[Point] = [()]
+        event_rss = costs.event_rss(points)
+        rss = float(event_rss.sum())
+    else:
+        grid = _grid(cand)
+        total = costs.event_rss(grid).sum(axis=1)
+        rss, best = _refine(costs, cand, grid, total)
+        points = list(costs.points)  # every point evaluated on all events
+        event_rss = costs.event_rss(points)
+        interval = _interval(cand, points, event_rss.sum(axis=1), n)
+    h = _score_folds(costs, folds, points, event_rss)
+    all_sq = np.concatenate(h.sq_lofo + h.sq_block)
     mse = float(all_sq.mean())
     k = len(cand.params) if cand is not None else 0
-    n_h = int(all_sq.size)
+    values = dict(zip((p.name for p in cand.params), best, strict=True)) if cand else {}
     fit = CandidateFit(
         key=cand.key if cand is not None else "none",
-        id=cand.id if cand is not None else "none",
-        k=k,
-        values=dict(zip((p.name for p in cand.params), best, strict=True)) if cand else {},
-        parameters=cand.public_parameters(dict(zip((p.name for p in cand.params), best,
-                                                   strict=True))) if cand else {},
+        id=cand.id if cand is not None else "none", k=k, values=values,
+        parameters=cand.public_parameters(values) if cand else {},
         interval=interval, rss=rss, n=n, aicc_train=_aicc(n, rss / n, k),
         heldout_rms=math.sqrt(mse),
-        heldout_rms_lofo=math.sqrt(float(np.concatenate(sq_lofo).mean())),
-        heldout_rms_block=math.sqrt(float(np.concatenate(sq_block).mean())),
-        score=_aicc(n_h, mse, k), heldout=held, heldout_sim=held_sim, fold_values=fold_values,
+        heldout_rms_lofo=math.sqrt(float(np.concatenate(h.sq_lofo).mean())),
+        heldout_rms_block=math.sqrt(float(np.concatenate(h.sq_block).mean())),
+        score=_aicc(int(all_sq.size), mse, k), heldout=h.held, heldout_sim=h.held_sim,
+        fold_values=h.fold_values,
     )
     progress(f"{fit.key}: held-out RMS {fit.heldout_rms:.3f}, score {fit.score:.1f} "
              f"({time.perf_counter() - t0:.1f} s)")
     return fit
 
 
-def _fit_task(camp: Campaign, preset: Preset, overrides: dict[str, float], cycles: float,
-              analyse_cycles: float, phases: int, key: str, folds, eids: list[str]
-              ) -> CandidateFit:
+def _fit_task(camp: Campaign, settings: RunSettings, phases: int, key: str, folds,
+              eids: list[str]) -> CandidateFit:
     """One candidate's fit in its own process (the feature code holds the GIL)."""
-    ev = _Evaluator(camp, preset, overrides, cycles, analyse_cycles, phases, 1)
-    try:
+    with CampaignEvaluator(camp, settings, phases=phases, workers=1) as ev:
         fit = _fit_candidate(ev, CANDIDATES[key], folds, eids, lambda _m: None)
         fit.n_evals = ev.n_evals
         return fit
-    finally:
-        ev.close()
 
 
-def _fit_all(camp, preset, overrides, cycles, analyse_cycles, phases, keys, folds, eids,
-             ev: _Evaluator, say: Callable[[str], None]) -> list[CandidateFit]:
+def _fit_all(camp: Campaign, settings: RunSettings, phases: int, keys: list[str], folds,
+             eids: list[str], ev: CampaignEvaluator, say: Callable[[str], None]
+             ) -> list[CandidateFit]:
     """Fit every candidate: in worker processes when there are several workers."""
     if ev.workers <= 1 or len(keys) <= 1:
         fits = []
@@ -514,8 +456,8 @@ def _fit_all(camp, preset, overrides, cycles, analyse_cycles, phases, keys, fold
     # user's script without a main guard works); the parent's threads are idle here
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     with ProcessPoolExecutor(max_workers=min(ev.workers, len(keys)), mp_context=ctx) as pool:
-        futures = {k: pool.submit(_fit_task, camp, preset, overrides, cycles, analyse_cycles,
-                                  phases, k, folds, eids) for k in order}
+        futures = {k: pool.submit(_fit_task, camp, settings, phases, k, folds, eids)
+                   for k in order}
         out: dict[str, CandidateFit] = {}
         for fut in as_completed(futures.values()):
             f = fut.result()
@@ -574,6 +516,41 @@ def diagnose(
     t0 = time.perf_counter()
     say = progress or (lambda _msg: None)
     camp = load_any_campaign(campaign)
+    _check_thresholds(min_delta, min_reduction, block_fraction, phases)
+    keys = keys_for(list(candidates) if candidates is not None else None)
+    settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},
+                           cycles=cycles, analyse_cycles=analyse_cycles)
+    folds = make_folds(camp, block_fraction)
+    eids = [e.id for e in camp.events]
+    with CampaignEvaluator(camp, settings, phases=phases,
+                           workers=workers or os.cpu_count() or 1) as ev:
+        base = _fit_candidate(ev, None, folds, eids, say)
+        base_eval = ev.base(eids)
+        located, located_events = _locate(camp, ev, base_eval)
+        say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
+        fits = _fit_all(camp, settings, phases, keys, folds, eids, ev, say)
+        ranking = sorted(fits, key=lambda f: f.score)
+        best = ranking[0] if ranking else None
+        chosen = None
+        if (best is not None and best.score <= base.score - min_delta
+                and best.heldout_rms <= (1.0 - min_reduction) * base.heldout_rms):
+            chosen = best
+        baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[e].values), strict=True))
+                        for e in eids}
+        return Diagnosis(
+            campaign=camp, preset=settings.preset, located=located,
+            located_events=located_events, baseline=base, ranking=ranking, chosen=chosen,
+            recorded=ev.targets, keys=dict(ev.keys), baseline_sim=baseline_sim, folds=folds,
+            settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, phases=phases,
+                          min_delta=min_delta, min_reduction=min_reduction,
+                          block_fraction=block_fraction, candidates=keys,
+                          overrides=dict(settings.overrides)),
+            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals,
+        )
+
+
+def _check_thresholds(min_delta: float, min_reduction: float, block_fraction: float,
+                      phases: int) -> None:
     if not (min_delta >= 0 and math.isfinite(min_delta)):
         raise ValueError(f"min_delta = {min_delta!r} must be a finite number >= 0")
     if not (0.0 <= min_reduction < 1.0):
@@ -582,50 +559,33 @@ def diagnose(
         raise ValueError(f"block_fraction = {block_fraction!r} must be in (0, 1)")
     if not (isinstance(phases, int) and phases >= 1):
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
-    keys = keys_for(list(candidates) if candidates is not None else None)
-    preset = preset or campaign_preset(camp)
-    folds = make_folds(camp, block_fraction)
-    ev = _Evaluator(camp, preset, overrides or {}, cycles, analyse_cycles, phases,
-                    workers or os.cpu_count() or 1)
-    try:
-        eids = [e.id for e in camp.events]
-        base = _fit_candidate(ev, None, folds, eids, say)
-        base_eval = ev.evaluate(None, [()], eids)
-        residuals = pd.DataFrame({e: dict(zip(ev.keys[e], base_eval[((), e)].z, strict=True))
-                                  for e in eids}).T.reindex(eids)
-        flows = {e.id: e.flow_gpm for e in camp.events}
-        located = locate(residuals, flows)
-        located_events = []
-        for e in eids:
-            z = base_eval[((), e)].z
-            rms = float(np.sqrt(np.mean(z ** 2)))
-            if rms > 2.0:
-                worst = np.argsort(-np.abs(z))[:3]
-                located_events.append({"event": e, "flow_gpm": flows[e], "rms_z": rms,
-                                       "worst": {ev.keys[e][j]: float(z[j]) for j in worst}})
-        say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
-        fits = _fit_all(camp, preset, dict(overrides or {}), cycles, analyse_cycles, phases,
-                        keys, folds, eids, ev, say)
-        ranking = sorted(fits, key=lambda f: f.score)
-        best = ranking[0] if ranking else None
-        chosen = None
-        if (best is not None and best.score <= base.score - min_delta
-                and best.heldout_rms <= (1.0 - min_reduction) * base.heldout_rms):
-            chosen = best
-        baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[((), e)].sim),
-                                    strict=True)) for e in eids}
-        return Diagnosis(
-            campaign=camp, preset=preset, located=located, located_events=located_events,
-            baseline=base, ranking=ranking, chosen=chosen, recorded=ev.recorded,
-            keys=dict(ev.keys), baseline_sim=baseline_sim, folds=folds,
-            settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, phases=phases,
-                          min_delta=min_delta, min_reduction=min_reduction,
-                          block_fraction=block_fraction, candidates=keys,
-                          overrides=dict(overrides or {})),
-            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals,
-        )
-    finally:
-        ev.close()
+
+
+def _locate(camp: Campaign, ev: CampaignEvaluator, base_eval: Mapping[str, EventEval]
+            ) -> tuple[list[Mismatch], list[dict[str, Any]]]:
+    """Where the base model disagrees: features offset or trending with flow, and the events
+    whose RMS standardised residual exceeds 2 (with their three worst features)."""
+    eids = list(base_eval)
+    residuals = pd.DataFrame({e: dict(zip(ev.keys[e], base_eval[e].z, strict=True))
+                              for e in eids}).T.reindex(eids)
+    flows = {e.id: e.flow_gpm for e in camp.events}
+    located_events = []
+    for e in eids:
+        z = base_eval[e].z
+        rms = float(np.sqrt(np.mean(z ** 2)))
+        if rms > 2.0:
+            worst = np.argsort(-np.abs(z))[:3]
+            located_events.append({"event": e, "flow_gpm": flows[e], "rms_z": rms,
+                                   "worst": {ev.keys[e][j]: float(z[j]) for j in worst}})
+    return locate(residuals, flows), located_events
+
+
+def _rms_of(got: Mapping[tuple[Point, str], EventEval], pt: Point, eids: Sequence[str]
+            ) -> tuple[float, dict[str, float]]:
+    """Pooled and per-event RMS standardised residual of one point."""
+    z = np.concatenate([got[(pt, e)].z for e in eids])
+    return (float(np.sqrt(np.mean(z ** 2))),
+            {e: float(np.sqrt(np.mean(got[(pt, e)].z ** 2))) for e in eids})
 
 
 def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
@@ -637,46 +597,38 @@ def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
     residual before/after and per event.
     """
     camp = load_any_campaign(campaign)
-    preset = preset or campaign_preset(camp)
     s = diag.settings
-    ev = _Evaluator(camp, preset, s["overrides"], s["cycles"], s["analyse_cycles"],
-                    s["phases"], workers or os.cpu_count() or 1)
-    try:
-        eids = [e.id for e in camp.events]
-        base = ev.evaluate(None, [()], eids)
-        zb = np.concatenate([base[((), e)].z for e in eids])
+    settings = RunSettings(preset or campaign_preset(camp), overrides=s["overrides"],
+                           cycles=s["cycles"], analyse_cycles=s["analyse_cycles"])
+    eids = [e.id for e in camp.events]
+    with CampaignEvaluator(camp, settings, phases=s["phases"],
+                           workers=workers or os.cpu_count() or 1) as ev:
+        base = _CandidateCosts(ev, None, eids).evaluate([()])
+        before, per_before = _rms_of(base, (), eids)
         out: dict[str, Any] = {"campaign": camp.name, "physics": diag.missing_physics,
-                               "error_before": float(np.sqrt(np.mean(zb ** 2)))}
-        per_event = {e: {"flow_gpm": ev.events[e].flow_gpm,
-                         "rms_before": float(np.sqrt(np.mean(base[((), e)].z ** 2)))}
+                               "error_before": before, "error_after": before}
+        per_event = {e: {"flow_gpm": ev.events[e].flow_gpm, "rms_before": per_before[e]}
                      for e in eids}
-        if diag.chosen is not None:
-            cand = CANDIDATES[diag.chosen.key]
-            pt = tuple(diag.chosen.values[p.name] for p in cand.params)
-            after = ev.evaluate(cand, [pt], eids)
-            za = np.concatenate([after[(pt, e)].z for e in eids])
-            out["error_after"] = float(np.sqrt(np.mean(za ** 2)))
+        # the chosen physics, and what the best-ranked candidate would predict even though it
+        # was not chosen: evidence for the next campaign, not a verdict
+        top = diag.ranking[0] if diag.ranking and diag.ranking[0] is not diag.chosen else None
+        for fit, label in ((diag.chosen, "after"), (top, "best_ranked")):
+            if fit is None:
+                continue
+            cand = CANDIDATES[fit.key]
+            pt = tuple(fit.values[p.name] for p in cand.params)
+            got = _CandidateCosts(ev, cand, eids).evaluate([pt])
+            err, per = _rms_of(got, pt, eids)
+            if label == "after":
+                out["error_after"] = err
+            else:
+                out["best_ranked"] = {"key": fit.key, "parameters": fit.parameters,
+                                      "error": err}
             for e in eids:
-                per_event[e]["rms_after"] = float(np.sqrt(np.mean(after[(pt, e)].z ** 2)))
-        else:
-            out["error_after"] = out["error_before"]
-        if diag.ranking and diag.ranking[0] is not diag.chosen:
-            # what the best-ranked candidate would predict even though it was not chosen:
-            # evidence for the next campaign, not a verdict
-            top = diag.ranking[0]
-            cand = CANDIDATES[top.key]
-            pt = tuple(top.values[p.name] for p in cand.params)
-            res = ev.evaluate(cand, [pt], eids)
-            zt = np.concatenate([res[(pt, e)].z for e in eids])
-            out["best_ranked"] = {"key": top.key, "parameters": top.parameters,
-                                  "error": float(np.sqrt(np.mean(zt ** 2)))}
-            for e in eids:
-                per_event[e]["rms_best_ranked"] = float(np.sqrt(np.mean(res[(pt, e)].z ** 2)))
+                per_event[e][f"rms_{label}"] = per[e]
         out["events"] = per_event
-        diag.prediction = _jsonable(out)
-        return diag.prediction
-    finally:
-        ev.close()
+    diag.prediction = _jsonable(out)
+    return diag.prediction
 
 
 def __getattr__(name: str) -> Any:

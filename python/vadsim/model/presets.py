@@ -23,6 +23,8 @@ from vadsim.data import table_2_1
 
 __all__ = [
     "KLBF_N",
+    "PARAM_ALIASES",
+    "canonical_name",
     "PRESETS",
     "Preset",
     "get_preset",
@@ -45,7 +47,19 @@ LAWS = {
 
 def param_table() -> list[tuple[str, str, str, str]]:
     """Every numeric parameter as ``(name, unit, meaning, rule)``, in Table 2.1 order."""
-    return [tuple(row) for row in _core.param_table()]
+    return [(row[0], row[1], row[2], row[3]) for row in _core.param_table()]
+
+
+PARAM_ALIASES: dict[str, str] = {"wob_n_per_kg": "wob"}
+"""Names that carry their unit, accepted wherever a parameter is named. The core's ``wob`` is
+the weight on bit per unit reference mass (N/kg); the field's weight on bit is ``wob_klbf``
+(a preset's, an event's, the CLI's ``--wob-klbf``): two quantities, so the N/kg one may be
+spelled ``wob_n_per_kg`` to say which."""
+
+
+def canonical_name(name: str) -> str:
+    """The core's name of a parameter (``"wob_n_per_kg"`` -> ``"wob"``)."""
+    return PARAM_ALIASES.get(name, name)
 
 
 def param_names() -> list[str]:
@@ -222,6 +236,7 @@ def _checked_overrides(overrides: Mapping[str, Any]) -> dict[str, float]:
     names = set(param_names())
     out: dict[str, float] = {}
     for key, value in overrides.items():
+        key = canonical_name(key)
         if key not in names:
             close = [n for n in names if n.lower() == str(key).lower()]
             hint = f" (did you mean {close[0]!r}?)" if close else ""

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from vadsim import _core
-from vadsim.model.presets import Preset, get_preset
+from vadsim.model.presets import Preset, canonical_name, get_preset
 from vadsim.model.simulate import SimulationResult, extra_force, simulate
 
 __all__ = ["ExtraSpec", "RunSettings", "excitation_hz"]
@@ -113,7 +113,7 @@ class RunSettings:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "preset", get_preset(self.preset))
-        object.__setattr__(self, "overrides", {k: float(v) for k, v in
+        object.__setattr__(self, "overrides", {canonical_name(k): float(v) for k, v in
                                                dict(self.overrides or {}).items()})
         object.__setattr__(self, "extras", tuple(ExtraSpec.coerce(e) for e in self.extras))
 
@@ -121,7 +121,8 @@ class RunSettings:
         """A copy with fields replaced; ``overrides`` given here are merged into the current
         ones and ``extras`` appended (what a candidate physics does to a base model)."""
         if "overrides" in changes:
-            changes["overrides"] = {**self.overrides, **dict(changes["overrides"] or {})}
+            changes["overrides"] = {**self.overrides, **{canonical_name(k): v for k, v in
+                                                         dict(changes["overrides"] or {}).items()}}
         if "extras" in changes:
             changes["extras"] = (*self.extras, *changes["extras"])
         return replace(self, **changes)

@@ -18,6 +18,7 @@ import pandas as pd
 
 from vadsim import _core
 from vadsim.model.presets import Preset, get_preset, make_params
+from vadsim.model.regimes import scenario
 
 __all__ = [
     "G",
@@ -94,7 +95,7 @@ def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
         acts_on = kw.pop("acts_on", "anvil")
         if acts_on not in ("anvil", "bit"):
             raise ValueError(f"hydraulic acts_on = {acts_on!r} must be 'anvil' or 'bit'")
-        out = _core.HydraulicForce(dof("acts_on", acts_on), need("c"))
+        out: _core.ExtraForce = _core.HydraulicForce(dof("acts_on", acts_on), need("c"))
     elif kind == "friction":
         body = dof("body", kw.pop("body", "anvil"))
         other = dof("other", kw.pop("other", "housing"))
@@ -164,8 +165,6 @@ class SimulationResult:
     @property
     def scenario(self) -> int:
         """Impact scenario of dissertation Table 4.2 (see :func:`vadsim.labels.scenario`)."""
-        from vadsim.signals.labels import scenario
-
         z = self.z
         return scenario(z["spring"], z["impact"])
 
@@ -291,8 +290,9 @@ def simulate(
         params.validate()
     flow = _number("flow_gpm", flow_gpm)
     for i, e in enumerate(extras):
-        if not isinstance(e, _core.ExtraForce):
-            raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...)")
+        if not (isinstance(e, _core.ExtraForce) or callable(getattr(e, "build", None))):
+            raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...) "
+                             "or be an ExtraSpec")
     if not isinstance(method, str) or method not in _METHODS:
         raise ValueError(f"method = {method!r} must be 'adams' or 'bdf'")
     if not isinstance(record, str) or record not in _RECORDS:
@@ -301,8 +301,26 @@ def simulate(
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
             raise ValueError(f"{name} = {value!r} must be an integer")
         _number(name, value, integer=True)
-    core_model = _core.Model(params, list(extras))
+    core_model = _core.Model(params, [_core_extra(e) for e in extras])
+    opts = _run_options(flow, cycles=cycles, analyse_cycles=analyse_cycles, method=method,
+                        rtol=rtol, atol=atol, max_step=max_step, record=record,
+                        output_rate_hz=output_rate_hz, summary_rate_hz=summary_rate_hz,
+                        max_steps=max_steps, max_events=max_events,
+                        initial_state=initial_state)
+    r = _core.simulate(core_model, opts)
+    return _result(r, params, preset, flow, cycles, analyse_cycles)
 
+
+def _core_extra(e: Any) -> _core.ExtraForce:
+    """A core extra force from a core object or anything with ``build()`` (an ExtraSpec)."""
+    return e if isinstance(e, _core.ExtraForce) else e.build()
+
+
+def _run_options(flow: float, *, cycles: float, analyse_cycles: float, method: str,
+                 rtol: float, atol: float, max_step: float, record: str, output_rate_hz: float,
+                 summary_rate_hz: float, max_steps: int, max_events: int,
+                 initial_state: Any) -> _core.RunOptions:
+    """The core's run options, every value checked and named."""
     opts = _core.RunOptions()
     opts.flow_gpm = flow
     opts.cycles = _number("option cycles", cycles)
@@ -318,9 +336,12 @@ def simulate(
     opts.max_events = int(max_events)
     opts.initial_state = _initial_state(initial_state)
     opts.validate()
+    return opts
 
-    r = _core.simulate(core_model, opts)
 
+def _result(r: Any, params: _core.Params, preset: Preset | None, flow: float, cycles: float,
+            analyse_cycles: float) -> SimulationResult:
+    """The core's raw result as a :class:`SimulationResult`."""
     kinds = np.asarray(r.event_kind)
     surf = np.asarray(r.event_surface)
     events = pd.DataFrame(

@@ -5,8 +5,8 @@ the dissertation's three (mean and dispersion of the 200 ms window peaks, impact
 impacts per cycle), the amplitude spectrum in frequency bands up to the Nyquist rate, and the
 ratio of the peaks at two sensors (x5 / x1). A difference between a simulated and a recorded
 feature means nothing without a yardstick, so every feature here is a :class:`Feature` that
-carries a spread estimated from the recording itself, and :func:`standardised_residuals` divides
-by the *recording's* spread.
+carries a spread estimated from the recording itself, and :func:`vadsim.compare.standardised_residual`
+divides by the *recording's* spread.
 
 What the spread is, and why it is not a standard error
 ------------------------------------------------------
@@ -72,7 +72,7 @@ from vadsim.signals.labels import (
     IMPACT_HEIGHT_FRAC,
     IMPACT_MIN_DISTANCE_S,
     PEAK_WINDOW_S,
-    _window_bounds,
+    window_bounds,
 )
 
 __all__ = [
@@ -87,7 +87,6 @@ __all__ = [
     "event_features",
     "features_table",
     "sensor_features",
-    "standardised_residuals",
     "summary_features",
 ]
 
@@ -380,6 +379,40 @@ class _SensorResult:
     usable: np.ndarray  # windows without a clipped sample
 
 
+def _peak_features(name: str, p: np.ndarray, n_windows: int) -> dict[str, Feature]:
+    """Mean and dispersion of the window peaks ``p`` (clipped windows already left out)."""
+    out: dict[str, Feature] = {}
+    if p.size == 0:
+        warnings.warn(
+            f"{name}: all {n_windows} windows hold clipped samples; the peak features are NaN",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+        out["peak_mean_g"] = _NAN_FEATURE
+        out["peak_std_g"] = _NAN_FEATURE
+    else:
+        if p.size < _MIN_WINDOWS:
+            warnings.warn(
+                f"{name}: only {p.size} of {n_windows} windows free of clipping; the spreads of "
+                "the peak features are NaN",
+                RuntimeWarning,
+                stacklevel=4,
+            )
+        mean, std = float(np.mean(p)), float(np.std(p))
+        out["peak_mean_g"] = _feature("peak_mean_g", mean, p)
+        # Delta method: std = sqrt(mean of d), d = squared deviation of a window peak, so
+        # sd(std estimate) = sd(d) / (2 std sqrt(n)); times sqrt(n) it is the one-window
+        # equivalent, as the std of the peaks is for their mean.
+        if p.size < _MIN_WINDOWS:
+            raw = math.nan
+        elif std == 0.0:
+            raw = 0.0
+        else:
+            raw = float(np.std((p - mean) ** 2, ddof=1)) / (2.0 * std)
+        out["peak_std_g"] = _feature("peak_std_g", std, p, raw)
+    return out
+
+
 def _sensor(
     name: str,
     a_g: npt.ArrayLike,
@@ -399,7 +432,7 @@ def _sensor(
     band_list = band_edges_for(rate_hz, bands)
     clip = _check_clipped(clipped_arg, clipped, a.size)
 
-    bounds = _window_bounds(a.size, rate_hz, window_s)
+    bounds = window_bounds(a.size, rate_hz, window_s)
     n_windows = bounds.size - 1
     if n_windows < _MIN_WINDOWS:
         raise ValueError(
@@ -417,36 +450,7 @@ def _sensor(
     usable = ~np.logical_or.reduceat(clip[: bounds[-1]], starts)
     out: dict[str, Feature] = {}
 
-    # Window peaks, clipped windows left out.
-    p = peaks[usable]
-    if p.size == 0:
-        warnings.warn(
-            f"{name}: all {n_windows} windows hold clipped samples; the peak features are NaN",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-        out["peak_mean_g"] = _NAN_FEATURE
-        out["peak_std_g"] = _NAN_FEATURE
-    else:
-        if p.size < _MIN_WINDOWS:
-            warnings.warn(
-                f"{name}: only {p.size} of {n_windows} windows free of clipping; the spreads of "
-                "the peak features are NaN",
-                RuntimeWarning,
-                stacklevel=3,
-            )
-        mean, std = float(np.mean(p)), float(np.std(p))
-        out["peak_mean_g"] = _feature("peak_mean_g", mean, p)
-        # Delta method: std = sqrt(mean of d), d = squared deviation of a window peak, so
-        # sd(std estimate) = sd(d) / (2 std sqrt(n)); times sqrt(n) it is the one-window
-        # equivalent, as the std of the peaks is for their mean.
-        if p.size < _MIN_WINDOWS:
-            raw = math.nan
-        elif std == 0.0:
-            raw = 0.0
-        else:
-            raw = float(np.std((p - mean) ** 2, ddof=1)) / (2.0 * std)
-        out["peak_std_g"] = _feature("peak_std_g", std, p, raw)
+    out.update(_peak_features(name, peaks[usable], n_windows))
     excluded = (~usable).astype(float)
     out["clipped_windows"] = _feature("clipped_windows", float(np.mean(excluded)), excluded)
 
@@ -771,65 +775,3 @@ def features_table(features: Mapping[str, Mapping[str, Feature]]) -> pd.DataFram
                 data[i, 2 * j : 2 * j + 2] = feats[key].value, feats[key].spread
     index = pd.Index(list(events), name="event")
     return pd.DataFrame(data, index=index, columns=columns)
-
-
-def standardised_residuals(
-    sim: Mapping[str, Mapping[str, Feature]],
-    rec: Mapping[str, Mapping[str, Feature]],
-    keys: Sequence[str] | None = None,
-) -> pd.DataFrame:
-    """Residuals of simulated features against recorded ones, in units of the recording's spread.
-
-    ``(sim.value - rec.value) / rec.spread``. The *recording's* spread standardises: it is the
-    yardstick of how much the real tool varies from window to window at that operating point
-    (a deterministic simulation has no comparable variability, and its spread is mostly the
-    floor). A residual of about 1 is a model within the recording's own scatter.
-
-    Parameters
-    ----------
-    sim, rec : mapping of str to mapping of str to Feature
-        Event id to features, simulated and recorded (same event ids and keys).
-    keys : sequence of str, optional
-        Feature keys to report. Default: every key that some event has in both ``sim`` and
-        ``rec``, in the order first met in ``rec``.
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per event (index ``"event"``: the events of ``rec``, then those only in
-        ``sim``), one column per key. NaN where either side lacks the event or the key, where a
-        value is NaN, or where the recorded spread is NaN or 0 (it cannot standardise).
-
-    Raises
-    ------
-    ValueError
-        If ``sim`` or ``rec`` is not a mapping of mappings of :class:`Feature`, or ``keys``
-        is not a sequence of strings or holds a key that no event of either side has.
-    """
-    sim = _check_events("sim", sim)
-    rec = _check_events("rec", rec)
-    if keys is None:
-        in_sim = set(_ordered_keys(sim))
-        names = [k for k in _ordered_keys(rec) if k in in_sim and _shared(k, sim, rec)]
-    else:
-        if isinstance(keys, str) or not isinstance(keys, Sequence):
-            raise ValueError(f"keys must be a sequence of feature keys, got {keys!r}")
-        known = set(_ordered_keys(sim, rec))
-        for k in keys:
-            if not isinstance(k, str):
-                raise ValueError(f"keys must hold strings, got {k!r}")
-            if k not in known:
-                raise ValueError(f"keys: {k!r} is a feature of no event in sim or rec")
-        names = list(keys)
-    events = list(rec) + [e for e in sim if e not in rec]
-    data = np.full((len(events), len(names)), np.nan)
-    for i, eid in enumerate(events):
-        s, r = sim.get(eid, {}), rec.get(eid, {})
-        for j, k in enumerate(names):
-            if k in s and k in r and r[k].spread > 0.0:
-                data[i, j] = (s[k].value - r[k].value) / r[k].spread
-    return pd.DataFrame(data, index=pd.Index(events, name="event"), columns=names)
-
-
-def _shared(key: str, sim: Mapping[str, Mapping[str, Feature]], rec: Mapping[str, Mapping]) -> bool:
-    return any(key in feats and key in sim.get(eid, {}) for eid, feats in rec.items())

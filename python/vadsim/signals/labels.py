@@ -28,6 +28,14 @@ from scipy.signal import find_peaks
 from scipy.spatial import ConvexHull, QhullError
 
 from vadsim._checks import finite_1d, finite_positive
+from vadsim.model.regimes import (
+    SCENARIO_NONE,
+    SCENARIO_SPRING_ONLY,
+    Z_EQ_TOL,
+    regime_name,
+    scenario,
+    surface_state,
+)
 
 __all__ = [
     "IMPACT_HEIGHT_FRAC",
@@ -48,32 +56,12 @@ __all__ = [
     "regime_name",
     "scenario",
     "surface_state",
+    "window_bounds",
     "window_peaks",
 ]
 
-Z_EQ_TOL: float = 0.02
-"""Absolute tolerance on Z for "Z = 1" (more generally "Z = k", k a positive integer) and "Z = 0".
 
-Z is counted over the 200 analysed cycles, so one missed impact gives 199/200 = 0.995 and a
-stray one 1/200 = 0.005. A tolerance of 0.02 accepts up to four missed (or stray) impacts in 200
-cycles -- residue of a slowly decaying transient or a rare grazing contact -- as "regular" (or
-"none"). It rejects every genuinely intermittent rational Z = p/q with q < 50: the largest such
-value below 1 is 48/49 = 0.9796 (Z = 1/2, 2/3, 4/5, 7/8 of the 7in model are all far from it),
-and the smallest above 0 is 1/49 = 0.0204. Orbits whose period is 50 cycles or more repeat at most
-four times in 200 cycles, so they cannot be told from regular-with-misses anyway. The bound is
-inclusive (a tiny slack absorbs rounding of the division). When Z is counted over a different
-number of cycles n, pass ``tol`` of about ``4 / n`` (but keep it below ``1 / (2 * q_max)``).
-"""
 
-SCENARIO_NONE: int = 0
-"""Scenario code for no impact at either the recoil spring or the impact face."""
-
-SCENARIO_SPRING_ONLY: int = 7
-"""Scenario code for impacts at the recoil spring but none at the impact face.
-
-Not in the dissertation's Table 4.2 (the anvil bounces on the spring without reaching the bit);
-a code of its own keeps it apart from the idle tool (:data:`SCENARIO_NONE`).
-"""
 
 PEAK_WINDOW_S: float = 0.2
 """Length of the windows for the axial vibration peaks (dissertation section 3.2), s."""
@@ -124,31 +112,8 @@ _QP_MAX_DRIFT: float = 0.1
 # an eccentric curve and few points); a focus converging by 0.5 % per cycle differs by > 20 %
 # between the halves of 100 points.
 
-_Z_SLACK: float = 1e-9
-# Absorbs the rounding of onsets / cycles so that e.g. 196/200 sits inside a 0.02 tolerance.
 
-_SCENARIOS: dict[tuple[str, str], int] = {
-    ("regular", "regular"): 1,
-    ("intermittent", "regular"): 2,
-    ("intermittent", "intermittent"): 3,
-    ("none", "intermittent"): 4,
-    ("none", "regular"): 5,
-    ("regular", "intermittent"): 6,
-    ("none", "none"): SCENARIO_NONE,
-    ("regular", "none"): SCENARIO_SPRING_ONLY,
-    ("intermittent", "none"): SCENARIO_SPRING_ONLY,
-}
 
-_REGIME_NAMES: dict[int, str] = {
-    SCENARIO_NONE: "no impacts",
-    1: "regular spring, regular impact face",
-    2: "intermittent spring, regular impact face",
-    3: "intermittent spring, intermittent impact face",
-    4: "no spring impact, intermittent impact face",
-    5: "no spring impact, regular impact face",
-    6: "regular spring, intermittent impact face",
-    SCENARIO_SPRING_ONLY: "spring impacts only, none at the impact face",
-}
 
 
 # --------------------------------------------------------------------------------------------
@@ -158,19 +123,8 @@ _REGIME_NAMES: dict[int, str] = {
 
 
 
-def _check_z(name: str, z: float) -> float:
-    z = float(z)
-    if not math.isfinite(z) or z < 0.0:
-        raise ValueError(f"{name} must be a finite number >= 0, got {z!r}")
-    return z
 
 
-def _check_tol(tol: float) -> float:
-    tol = float(tol)
-    # Above 0.5 the "near an integer" bands would overlap and every Z would be regular or none.
-    if not math.isfinite(tol) or not 0.0 <= tol < 0.5:
-        raise ValueError(f"tol must be in [0, 0.5), got {tol!r}")
-    return tol
 
 
 # --------------------------------------------------------------------------------------------
@@ -249,91 +203,10 @@ def impacts_per_cycle(onset_times: npt.ArrayLike, t0: float, t1: float, f_exc_hz
     return count / ((t1 - t0) * f)
 
 
-def surface_state(z: float, tol: float = Z_EQ_TOL) -> str:
-    """Impact state of one surface from its Z: ``"regular"``, ``"intermittent"`` or ``"none"``.
-
-    * ``"none"``: ``Z <= tol``.
-    * ``"regular"``: Z within ``tol`` of a positive integer k. MODEL.md's "=1" is k = 1; k >= 2
-      (two impacts every cycle, or a chattering contact that re-opens the same number of times
-      each cycle) is regular too, because Z near an integer over 200 cycles means the surface is
-      hit the same number of times every cycle up to a few exceptions. Only the mean is known,
-      so a mixture like "0 impacts one cycle, 2 the next" (Z = 1) cannot be told apart; a
-      Poincare section (:func:`periodicity`) resolves it if needed.
-    * ``"intermittent"``: anything else, including a non-integer Z > 1 (e.g. 1.5: one impact in
-      some cycles, two in others) -- the surface is not hit the same way every cycle.
-
-    Parameters
-    ----------
-    z : float
-        Impacts per cycle, >= 0.
-    tol : float, optional
-        Absolute tolerance, default :data:`Z_EQ_TOL` (see there for why 0.02).
-
-    Returns
-    -------
-    str
-        The state, as in the columns of ``data/thesis/regimes_7in.csv``.
-    """
-    z = _check_z("z", z)
-    tol = _check_tol(tol)
-    if z <= tol + _Z_SLACK:
-        return "none"
-    if abs(z - round(z)) <= tol + _Z_SLACK:
-        return "regular"
-    return "intermittent"
 
 
-def scenario(z_spring: float, z_impact: float, tol: float = Z_EQ_TOL) -> int:
-    """Impact scenario (dissertation Table 4.2) from Z1 (recoil spring) and Z2 (impact face).
-
-    ======== ============ ============ ===================================================
-    code     Z1 (spring)  Z2 (face)    note
-    ======== ============ ============ ===================================================
-    1        regular      regular
-    2        intermittent regular
-    3        intermittent intermittent
-    4        none         intermittent
-    5        none         regular
-    6        regular      intermittent
-    0        none         none         not in Table 4.2: idle tool (:data:`SCENARIO_NONE`)
-    7        > 0          none         not in Table 4.2 (:data:`SCENARIO_SPRING_ONLY`)
-    ======== ============ ============ ===================================================
-
-    "regular" is MODEL.md's "=1", "intermittent" its "0<Z<1", "none" its "=0", judged by
-    :func:`surface_state` with the same ``tol`` (so Z = 2 counts as regular, Z = 1.5 as
-    intermittent).
-
-    Parameters
-    ----------
-    z_spring, z_impact : float
-        Z1 and Z2, >= 0.
-    tol : float, optional
-        Absolute tolerance on Z, default :data:`Z_EQ_TOL`.
-
-    Returns
-    -------
-    int
-        Scenario code, 0..7.
-    """
-    s1 = surface_state(_check_z("z_spring", z_spring), tol)
-    s2 = surface_state(_check_z("z_impact", z_impact), tol)
-    return _SCENARIOS[(s1, s2)]
 
 
-def regime_name(scenario: int) -> str:
-    """Short description of a scenario code returned by :func:`scenario`.
-
-    Raises
-    ------
-    ValueError
-        If the code is not one of 0..7.
-    """
-    try:
-        return _REGIME_NAMES[int(scenario)]
-    except (KeyError, TypeError, ValueError):
-        raise ValueError(
-            f"scenario must be one of {sorted(_REGIME_NAMES)}, got {scenario!r}"
-        ) from None
 
 
 # --------------------------------------------------------------------------------------------
@@ -379,7 +252,7 @@ def impulse_per_second(t: npt.ArrayLike, force: npt.ArrayLike) -> tuple[float, f
     return mean, mean_positive
 
 
-def _window_bounds(n: int, rate_hz: float, window_s: float) -> np.ndarray:
+def window_bounds(n: int, rate_hz: float, window_s: float) -> np.ndarray:
     # Windows are time intervals [i W, (i + 1) W) from the first sample, so that at 1024 Hz the
     # 200 ms windows hold 204 or 205 samples and their edges do not drift by 0.8 sample per
     # window as a rounded sample count would.
@@ -419,7 +292,7 @@ def window_peaks(
     a = finite_1d("signal", signal)
     rate_hz = finite_positive("rate_hz", rate_hz)
     window_s = finite_positive("window_s", window_s)
-    bounds = _window_bounds(a.size, rate_hz, window_s)
+    bounds = window_bounds(a.size, rate_hz, window_s)
     if bounds.size < 2 or np.any(np.diff(bounds) < 1):
         raise ValueError(
             f"signal of {a.size} samples at {rate_hz} Hz is shorter than one window "

@@ -1,12 +1,15 @@
 """Blind benchmark of the diagnosis: concealed physics in campaigns it has never seen.
 
+An application of the fit layer (it writes campaigns, diagnoses them and writes a score
+sheet through :mod:`vadsim.report`), so it sits above both, beside the reports.
+
 Why this module exists: a diagnosis that names missing physics must be shown to name the
 right one, to say "none" when nothing is missing, and to improve predictions of data it did
 not fit. This benchmark writes campaigns in the RECORDINGS.md format from the model plus one
 concealed effect (every candidate at two magnitudes, and none), through the sensor chain
 with noise, under neutral names in shuffled order; the truth goes to ``truth.json``, which the
 diagnosis never reads (it loads each campaign from disk). It then runs
-:func:`vadsim.diagnose.diagnose` on every campaign and scores:
+:func:`vadsim.fit.diagnose.diagnose` on every campaign and scores:
 
 * identification rate over the campaigns with an effect (overall and per candidate);
 * false-alarm rate over the null campaigns;
@@ -31,10 +34,10 @@ from typing import Any
 
 import numpy as np
 
+from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnose import diagnose
-from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.report.blind import blind_markdown
 
 __all__ = ["DEFAULT_SCENARIOS", "Scenario", "blind_benchmark"]

@@ -1,0 +1,151 @@
+"""The house rules of the package, checked on its source (docs/ARCHITECTURE.md).
+
+- imports point one way: cli -> report -> plots -> fit/studies -> compare -> campaigns ->
+  signals -> model -> (data, the core); type-only imports and the module ``__getattr__`` that
+  keeps a vadsim 0.1 name working are the only exceptions;
+- no private name (leading underscore) is imported from another module;
+- no function is longer than ``MAX_LINES`` except the listed ones, each with its reason;
+- every old import path (``vadsim.sweep``, ``vadsim.presets``...) gives the module that now
+  holds it, and ``vadsim.simulate`` stays the function.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+from pathlib import Path
+
+import pytest
+import vadsim
+from vadsim._aliases import ALIASES
+
+PACKAGE = Path(vadsim.__file__).resolve().parent
+
+LAYERS = {
+    "vadsim._version": 0, "vadsim._checks": 0, "vadsim._aliases": 0, "vadsim.data": 0,
+    "vadsim._core": 0, "vadsim.model": 1, "vadsim.signals": 2, "vadsim.campaigns": 3,
+    "vadsim.compare": 4, "vadsim.fit": 5, "vadsim.studies": 5, "vadsim.plots": 6,
+    "vadsim.report": 7, "vadsim.blind": 7, "vadsim.cli": 8,
+}
+"""The layer of each top-level part: a module may import its own layer and those below."""
+
+MAX_LINES = 80
+
+LONG_FUNCTIONS: dict[str, str] = {
+    # module:function -> why it is long
+}
+"""Functions allowed over MAX_LINES, each with the reason."""
+
+
+def _modules() -> list[tuple[str, Path]]:
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE.parent).with_suffix("")
+        parts = list(rel.parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        if "data" in parts[1:2] and parts[-1] != "data":  # scripts that regenerate data
+            continue
+        out.append((".".join(parts), path))
+    return out
+
+
+def _layer(module: str) -> int | None:
+    for prefix in sorted(LAYERS, key=len, reverse=True):
+        if module == prefix or module.startswith(prefix + "."):
+            return LAYERS[prefix]
+    return None
+
+
+def _imports(tree: ast.Module, module: str, is_package: bool):
+    """(imported module, names, line) of every runtime import outside a module __getattr__."""
+    skip: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            skip.update(id(n) for n in ast.walk(node))
+        if isinstance(node, ast.FunctionDef) and node.name == "__getattr__":
+            skip.update(id(n) for n in ast.walk(node))
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                yield a.name, [], node.lineno
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                pkg = module.split(".") if is_package else module.split(".")[:-1]
+                pkg = pkg[: len(pkg) - node.level + 1]
+                base = ".".join(pkg + ([base] if base else []))
+            yield base, [a.name for a in node.names], node.lineno
+
+
+def test_imports_point_one_way() -> None:
+    bad = []
+    for module, path in _modules():
+        mine = _layer(module)
+        if mine is None or module == "vadsim":
+            continue
+        tree = ast.parse(path.read_text())
+        for target, names, line in _imports(tree, module, path.name == "__init__.py"):
+            targets = [target] + [f"{target}.{n}" for n in names]
+            for t in targets:
+                theirs = _layer(t) if t.startswith("vadsim") else None
+                if theirs is not None and theirs > mine:
+                    bad.append(f"{module}:{line} imports {t} (layer {theirs} > {mine})")
+                    break
+    assert not bad, "\n".join(bad)
+
+
+def test_no_private_names_across_modules() -> None:
+    bad = []
+    for module, path in _modules():
+        tree = ast.parse(path.read_text())
+        for target, names, line in _imports(tree, module, path.name == "__init__.py"):
+            if not target.startswith("vadsim"):
+                continue
+            private = [n for n in names if n.startswith("_") and n != "__version__"
+                       and not (target == "vadsim" and n in ("_core", "_aliases"))]
+            if private:
+                bad.append(f"{module}:{line} imports {private} from {target}")
+    assert not bad, "\n".join(bad)
+
+
+def _code_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Lines of a function without its docstring (a numpydoc docstring is not code)."""
+    body = node.body
+    first = body[0]
+    if (isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)
+            and isinstance(first.value.value, str)):
+        doc = first.end_lineno - first.lineno + 1
+        return node.end_lineno - node.lineno + 1 - doc
+    return node.end_lineno - node.lineno + 1
+
+
+def test_no_monolith_functions() -> None:
+    long = {}
+    for module, path in _modules():
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = _code_lines(node)
+                if n > MAX_LINES:
+                    long[f"{module}:{node.name}"] = n
+    unexplained = {k: v for k, v in long.items() if k not in LONG_FUNCTIONS}
+    assert not unexplained, f"functions over {MAX_LINES} lines: {unexplained}"
+
+
+@pytest.mark.parametrize("old", sorted(ALIASES))
+def test_old_import_paths_give_the_new_modules(old: str) -> None:
+    assert importlib.import_module(old) is importlib.import_module(ALIASES[old])
+    assert callable(vadsim.simulate), "importing an old path must not replace vadsim.simulate"
+
+
+def test_one_residual_definition() -> None:
+    """Validation, calibration and diagnosis standardise through vadsim.compare only."""
+    for module, path in _modules():
+        if module == "vadsim.compare":
+            continue
+        text = path.read_text()
+        assert "def event_residuals" not in text and "def standardised_residual" not in text, (
+            f"{module} defines a residual of its own")
