@@ -123,7 +123,8 @@ def _fine_rate_hz(campaign: Campaign) -> float:
 
 def run_event(campaign: Campaign, event: Event, settings: RunSettings) -> SimulationResult:
     """Run the model at one event's flow and WOB, recording the steady window on a grid fine
-    enough for every sensor of the campaign (:data:`vadsim.signals.sensor.SIMULATION_OVERSAMPLING`)."""
+    enough for every sensor of the campaign
+    (:data:`vadsim.signals.sensor.SIMULATION_OVERSAMPLING` times the fastest sensor's rate)."""
     return settings.run(event.flow_gpm, wob_klbf=event.wob_klbf, record="window",
                         output_rate_hz=_fine_rate_hz(campaign))
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import csv
 import sys
-from typing import Any
 from pathlib import Path
+from typing import Any
 
 HERE = Path(__file__).resolve().parent
 FIELD_TABLE = HERE / "thesis" / "field_events.csv"

@@ -141,7 +141,8 @@ def calibration_cost(
     -------
     (float, pandas.DataFrame)
         The soft-L1 cost ``sum 2 (sqrt(1 + r^2) - 1)`` of the standardised residuals, and the
-        residuals (events x feature keys; a failed run gives :data:`vadsim.compare.FAILED_RESIDUAL`).
+        residuals (events x feature keys; a failed run gives
+        :data:`vadsim.compare.FAILED_RESIDUAL`).
     """
     camp = load_any_campaign(campaign)
     settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},

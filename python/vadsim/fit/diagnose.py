@@ -198,10 +198,8 @@ class Diagnosis:
                          "thresholds)")
         else:
             c = self.chosen
-            par = ", ".join(
-                f"{k} = {fmt_value(v)}" + (f" [{fmt_value(c.interval[k][0])}, {fmt_value(c.interval[k][1])}]"
-                                      if k in c.interval else "")
-                for k, v in c.parameters.items())
+            par = ", ".join(f"{k} = {fmt_value(v)}" + _interval_text(c.interval.get(k))
+                            for k, v in c.parameters.items())
             lines.append(f"missing physics: {c.id} ({par}); held-out RMS "
                          f"{self.baseline.heldout_rms:.2f} -> {c.heldout_rms:.2f}")
         if self.prediction:
@@ -213,6 +211,10 @@ class Diagnosis:
                 lines.append(f"  (the best-ranked candidate, {b['key']}, not chosen, would give "
                              f"{b['error']:.2f})")
         return "\n".join(lines)
+
+
+def _interval_text(interval: tuple[float, float] | None) -> str:
+    return f" [{fmt_value(interval[0])}, {fmt_value(interval[1])}]" if interval else ""
 
 
 def fmt_value(v: Any) -> str:

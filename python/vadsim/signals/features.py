@@ -5,8 +5,8 @@ the dissertation's three (mean and dispersion of the 200 ms window peaks, impact
 impacts per cycle), the amplitude spectrum in frequency bands up to the Nyquist rate, and the
 ratio of the peaks at two sensors (x5 / x1). A difference between a simulated and a recorded
 feature means nothing without a yardstick, so every feature here is a :class:`Feature` that
-carries a spread estimated from the recording itself, and :func:`vadsim.compare.standardised_residual`
-divides by the *recording's* spread.
+carries a spread estimated from the recording itself, and
+:func:`vadsim.compare.standardised_residual` divides by the *recording's* spread.
 
 What the spread is, and why it is not a standard error
 ------------------------------------------------------
