@@ -167,6 +167,7 @@ class CalibrationResult:
     residuals_after: pd.DataFrame
     history: pd.DataFrame
     profile: dict[str, pd.DataFrame] = field(default_factory=dict)
+    interval: dict[str, tuple[float, float]] = field(default_factory=dict)
     seconds: float = 0.0
     evaluations: int = 0
     settings: dict[str, Any] = field(default_factory=dict)
@@ -176,8 +177,9 @@ class CalibrationResult:
         lines = [f"calibrated {', '.join(self.names)} in {self.seconds:.0f} s "
                  f"({self.evaluations} campaign evaluations)"]
         for n in self.names:
-            lines.append(f"  {n:>6} = {self.estimates[n]:.6g} +- {self.stderr[n]:.2g}   "
-                         f"(start {self.start[n]:.6g})")
+            lo, hi = self.interval.get(n, (math.nan, math.nan))
+            lines.append(f"  {n:>6} = {self.estimates[n]:.6g}, 95 % interval [{lo:.6g}, "
+                         f"{hi:.6g}] from the cost profile   (start {self.start[n]:.6g})")
         lines.append(f"  cost {self.cost_before:.4g} -> {self.cost_after:.4g} "
                      f"(RMS standardised residual "
                      f"{_rms(self.residuals_before):.3g} -> {_rms(self.residuals_after):.3g})")
@@ -270,8 +272,11 @@ def calibrate(
     Returns
     -------
     CalibrationResult
-        ``stderr`` from the Jacobian of the standardised residuals at the optimum
-        (``cov = s^2 (J^T J)^-1``, ``s^2`` the residual variance).
+        ``interval``: 95 % intervals from the cost along each parameter (the others at the
+        optimum): where the cost rises by ``CHI2_95 s^2`` above its minimum, ``s^2`` the
+        residual variance, at least 1 (the residuals are in units of the recordings' spreads). ``stderr`` from the Jacobian of the standardised residuals
+        (``cov = s^2 (J^T J)^-1``) is kept for reference: on this rough cost (regime changes,
+        phase aliases) it is far too small, so summaries quote the interval.
     """
     camp = load_any_campaign(campaign)
     settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},
@@ -321,6 +326,11 @@ def _start_and_bounds(settings: RunSettings, names: list[str],
         if not (lo <= x0[n] <= hi):
             raise ValueError(f"start {n} = {x0[n]} is outside its bounds {lim[n]}")
     return x0, lim
+
+
+CHI2_95 = 3.841458820694124
+"""The 95 % quantile of chi-square with one degree of freedom: a profile interval's cost rise
+(in units of the residual variance)."""
 
 
 def _grid1(lo: float, hi: float, num: int) -> np.ndarray:
@@ -474,6 +484,32 @@ class _Calibration:
             out[nm] = pd.DataFrame({nm: grid, "cost": costs})
         return out
 
+    def interval(self, est: dict[str, float], nm: str, limit: float, steps: int = 8,
+                 grid: int = 25) -> tuple[float, float]:
+        """The values of ``nm`` (the others at the optimum) whose cost stays below ``limit``.
+
+        The 95 % interval of a likelihood-ratio test when the cost is a sum of squares (soft-L1
+        is one near zero). The cost is rough (regime changes, chaotic intermittent events,
+        phase aliases), so it is probed twice: walking outward from the optimum (from 0.1 % of
+        the range, doubling) and on a ``grid`` over the whole range. The interval spans every
+        accepted value, out to the nearest rejected value beyond it on each side (or the
+        bound): a second valley as good as the optimum widens it, as it should.
+        """
+        lo_b, hi_b = self.lim[nm]
+        xs = {est[nm]} | {float(v) for v in np.linspace(lo_b, hi_b, grid)}
+        for sign in (-1.0, 1.0):
+            step = 0.001 * (hi_b - lo_b)
+            for k in range(steps):
+                xs.add(min(max(est[nm] + sign * step * (2 ** (k + 1) - 1), lo_b), hi_b))
+        pts = np.array(sorted(xs))
+        cost = np.array([_soft_l1(self.residuals({**est, nm: float(x)})) for x in pts])
+        ok = np.flatnonzero(cost <= limit)
+        if ok.size == 0:  # the optimum itself is on the limit: only its neighbours
+            ok = np.array([int(np.argmin(np.abs(pts - est[nm])))])
+        lo_i, hi_i = ok.min(), ok.max()
+        return (float(pts[lo_i - 1]) if lo_i > 0 else lo_b,
+                float(pts[hi_i + 1]) if hi_i < pts.size - 1 else hi_b)
+
     def run(self, profile_points: int) -> CalibrationResult:
         t0 = time.perf_counter()
         r_before = self.residuals(self.x0)
@@ -487,11 +523,17 @@ class _Calibration:
         r_after = np.asarray(ls.fun, dtype=float)
         stderr = self.uncertainty(ls)
         prof = self.profile(est, stderr, profile_points) if profile_points > 0 else {}
+        cost_min = _soft_l1(r_after)
+        # Residuals are standardised by the recordings' spreads: their variance is 1 unless
+        # the fit is worse than the recordings' scatter, then it is the residual variance.
+        s2 = max(float(np.sum(r_after ** 2)) / max(r_after.size - len(self.names), 1), 1.0)
+        limit = cost_min + CHI2_95 * s2
+        interval = {nm: self.interval(est, nm, limit) for nm in self.names}
         return CalibrationResult(
             names=self.names, start=self.x0, estimates=est, stderr=stderr,
             cost_before=_soft_l1(r_before), cost_after=_soft_l1(r_after),
             residuals_before=self.obj.table(r_before), residuals_after=self.obj.table(r_after),
-            history=pd.DataFrame(self.history), profile=prof,
+            history=pd.DataFrame(self.history), profile=prof, interval=interval,
             seconds=time.perf_counter() - t0, evaluations=self.evals,
         )
 
