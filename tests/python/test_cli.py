@@ -3,7 +3,7 @@
 import json
 
 import pytest
-from vadsim.cli import main
+from vadsim.cli import build_parser, main
 
 
 def test_run_json(capsys):
@@ -45,3 +45,65 @@ def test_map_prints_counts(capsys):
 def test_errors_exit_2_with_a_message(argv, needle, capsys):
     assert main(argv) == 2
     assert needle in capsys.readouterr().err
+
+
+def _subcommands(parser):
+    """{name: sub-parser} of ``vadsim``'s sub-commands."""
+    [sub] = [a for a in parser._actions if isinstance(a.choices, dict)]
+    return sub.choices
+
+
+def _actions(parser, flag):
+    return [a for a in parser._actions if flag in a.option_strings]
+
+
+@pytest.mark.parametrize("flag", ["--wob", "--wob-klbf"])
+def test_wob_is_an_alias_of_wob_klbf(flag, capsys):
+    for command in ("run", "sweep", "map --param Fo --values 1 2"):
+        args = build_parser().parse_args([*command.split(), flag, "30"])
+        assert args.wob_klbf == 30.0
+        assert "wob" not in vars(args)
+    assert main(["run", "--flow", "200", "--cycles", "20", "--analyse", "10", flag, "25"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "25 klbf" in lines[0]
+
+
+def test_wob_and_wob_klbf_give_the_same_run(capsys):
+    rows = []
+    for flag in ("--wob", "--wob-klbf"):
+        assert main(["run", "--flow", "200", "--cycles", "20", "--analyse", "10", flag, "25",
+                     "--json"]) == 0
+        rows.append(json.loads(capsys.readouterr().out)["runs"])
+    assert rows[0] == rows[1]
+
+
+def test_set_and_cycles_are_declared_once_and_shared():
+    subs = _subcommands(build_parser())
+    sets = {name: _actions(p, "--set") for name, p in subs.items() if _actions(p, "--set")}
+    assert set(sets) == {"run", "sweep", "map", "validate", "calibrate", "diagnose"}
+    assert all(len(a) == 1 for a in sets.values())
+    assert len({id(a[0]) for a in sets.values()}) == 1  # one Action object: the parent's
+    cycles = {name: _actions(p, "--cycles")[0] for name, p in subs.items()
+              if _actions(p, "--cycles")}
+    assert cycles["diagnose"].default == 300
+    assert {a.default for n, a in cycles.items() if n != "diagnose"} == {400}
+    assert len({id(a) for n, a in cycles.items() if n != "diagnose"}) == 1
+
+
+def test_set_and_cycles_appear_once_in_the_cli_source():
+    import ast
+    from pathlib import Path
+
+    import vadsim.cli
+
+    declared = []
+    for path in Path(vadsim.cli.__file__).parent.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "add_argument":
+                declared += [(a.value, path.name) for a in node.args
+                             if isinstance(a, ast.Constant)]
+    assert [d for d in declared if d[0] == "--set"] == [("--set", "common.py")]
+    assert [d for d in declared if d[0] == "--cycles"] == [("--cycles", "common.py")]
+    assert [d[1] for d in declared if d[0] == "--workers"] == ["common.py"]
+
+
