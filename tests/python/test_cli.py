@@ -57,6 +57,15 @@ def _actions(parser, flag):
     return [a for a in parser._actions if flag in a.option_strings]
 
 
+def test_version_prints_the_package_version(capsys):
+    import vadsim
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out == f"vadsim {vadsim.__version__}\n"
+
+
 @pytest.mark.parametrize("flag", ["--wob", "--wob-klbf"])
 def test_wob_is_an_alias_of_wob_klbf(flag, capsys):
     for command in ("run", "sweep", "map --param Fo --values 1 2"):

@@ -17,6 +17,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from vadsim import __version__
 from vadsim.cli import campaigns, run, studies
 from vadsim.cli.common import make_parents
 from vadsim.model.simulate import SolverError
@@ -31,6 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Simulate a vibration-assisted drilling tool: impact regimes, "
         "impulse per second J*, vibration peaks.",
     )
+    parser.add_argument("--version", action="version", version=f"vadsim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     parents = make_parents()
     for group in (run, studies, campaigns):
