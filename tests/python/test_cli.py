@@ -86,6 +86,14 @@ def test_wob_and_wob_klbf_give_the_same_run(capsys):
     assert rows[0] == rows[1]
 
 
+def test_jobs_is_a_hidden_alias_of_workers(capsys):
+    parser = build_parser()
+    assert parser.parse_args(["run"]).workers == 2
+    assert parser.parse_args(["run", "--jobs", "3"]).workers == 3
+    assert parser.parse_args(["run", "--workers", "3"]).workers == 3
+    assert "--jobs" not in _subcommands(parser)["run"].format_help()
+
+
 def test_set_and_cycles_are_declared_once_and_shared():
     subs = _subcommands(build_parser())
     sets = {name: _actions(p, "--set") for name, p in subs.items() if _actions(p, "--set")}

@@ -17,6 +17,7 @@ from vadsim.cli.common import (
     Parents,
     Subparsers,
     parse_overrides,
+    workers_parent,
 )
 from vadsim.model.presets import PRESETS, get_preset, param_table
 from vadsim.model.simulate import SURFACES, SimulationResult, simulate
@@ -40,7 +41,8 @@ def _add_run(sub: Subparsers, parents: Parents) -> None:
         description="Run the model from its static on-bottom state at each flow rate "
         "(in parallel threads) and print impacts per cycle Z per surface, the impact scenario "
         "(dissertation Table 4.2), 200 ms peak statistics at x1 and x5 and J*.",
-        parents=[parents.length, parents.load, parents.overrides],
+        parents=[parents.length, parents.load, parents.overrides,
+                 workers_parent(default=2, what="parallel threads")],
     )
     run.add_argument("preset", nargs="?", default=DEFAULT_PRESET,
                      help="tool preset: " + ", ".join(PRESETS) + f" (default {DEFAULT_PRESET})")
@@ -49,7 +51,8 @@ def _add_run(sub: Subparsers, parents: Parents) -> None:
     run.add_argument("--method", default="adams", choices=["adams", "bdf"],
                      help="CVODE method (default adams)")
     run.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (1e-6)")
-    run.add_argument("--jobs", type=int, default=2, help="parallel threads (default 2)")
+    run.add_argument("--jobs", dest="workers", type=int, default=argparse.SUPPRESS,
+                     help=argparse.SUPPRESS)  # the old name of --workers
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.set_defaults(func=_cmd_run)
 
@@ -114,7 +117,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
 
     t0 = time.perf_counter()
-    workers = max(1, min(args.jobs, len(flows)))
+    workers = max(1, min(args.workers, len(flows)))
     with ThreadPoolExecutor(max_workers=workers) as pool:
         results = list(pool.map(one, flows))
     elapsed = time.perf_counter() - t0
