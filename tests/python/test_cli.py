@@ -66,6 +66,26 @@ def test_version_prints_the_package_version(capsys):
     assert capsys.readouterr().out == f"vadsim {vadsim.__version__}\n"
 
 
+def test_preset_after_flow_is_the_preset_not_a_flow(capsys):
+    assert main(["run", "--flow", "200", "7in-rc", "--cycles", "20", "--analyse", "10",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["preset"] == "7in-rc"
+    assert [r["flow_gpm"] for r in out["runs"]] == [200.0]
+    args = build_parser().parse_args(["run", "--flow", "200", "250", "9.5in-pdc"])
+    assert (args.flow, args.flow_preset) == ([200.0, 250.0], "9.5in-pdc")
+
+
+def test_two_presets_or_words_among_flows_are_errors(capsys):
+    assert main(["run", "7in-cde", "--flow", "200", "7in-rc"]) == 2
+    assert "two presets" in capsys.readouterr().err
+    for argv in (["run", "--flow", "7in-rc"], ["run", "--flow", "200", "7in-rc", "300"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+        assert "argument --flow" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("flag", ["--wob", "--wob-klbf"])
 def test_wob_is_an_alias_of_wob_klbf(flag, capsys):
     for command in ("run", "sweep", "map --param Fo --values 1 2"):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -23,7 +24,34 @@ from vadsim.model.presets import PRESETS, get_preset, param_table
 from vadsim.model.simulate import SURFACES, SimulationResult, simulate
 from vadsim.signals.labels import regime_name
 
-__all__ = ["add_parsers"]
+__all__ = ["FlowsThenPreset", "add_parsers"]
+
+
+class FlowsThenPreset(argparse.Action):
+    """``--flow Q [Q ...] [PRESET]``: flow rates, then optionally the preset.
+
+    ``--flow`` takes one or more numbers, so argparse hands it every word up to the next
+    option, including a preset written after it (``vadsim run --flow 200 7in-rc``). The
+    numbers are the flows; one trailing word is kept as ``flow_preset`` and ``_cmd_run``
+    uses it as the preset, so the preset may stand before or after ``--flow``.
+    """
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: str | Sequence[Any] | None, option_string: str | None = None) -> None:
+        words = [str(v) for v in (values or [])]
+        flows: list[float] = []
+        for i, word in enumerate(words):
+            try:
+                flows.append(float(word))
+            except ValueError:
+                rest = words[i:]
+                if not flows or len(rest) > 1:
+                    raise argparse.ArgumentError(
+                        self, f"expected flow rates in gal/min (numbers), then at most one "
+                        f"preset; got {' '.join(words)}") from None
+                namespace.flow_preset = rest[0]
+                break
+        setattr(namespace, self.dest, flows)
 
 
 def add_parsers(sub: Subparsers, parents: Parents) -> None:
@@ -44,17 +72,19 @@ def _add_run(sub: Subparsers, parents: Parents) -> None:
         parents=[parents.length, parents.load, parents.overrides,
                  workers_parent(default=2, what="parallel threads")],
     )
-    run.add_argument("preset", nargs="?", default=DEFAULT_PRESET,
+    # default None so that a preset given after --flow (flow_preset) can be told apart
+    run.add_argument("preset", nargs="?", default=None,
                      help="tool preset: " + ", ".join(PRESETS) + f" (default {DEFAULT_PRESET})")
-    run.add_argument("--flow", type=float, nargs="+", default=[200.0],
-                     help="flow rates in gal/min (default 200)")
+    run.add_argument("--flow", nargs="+", default=[200.0], action=FlowsThenPreset,
+                     metavar="GPM", help="flow rates in gal/min (default 200); a preset may "
+                     "follow them")
     run.add_argument("--method", default="adams", choices=["adams", "bdf"],
                      help="CVODE method (default adams)")
     run.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (1e-6)")
     run.add_argument("--jobs", dest="workers", type=int, default=argparse.SUPPRESS,
                      help=argparse.SUPPRESS)  # the old name of --workers
     run.add_argument("--json", action="store_true", help="print one JSON object")
-    run.set_defaults(func=_cmd_run)
+    run.set_defaults(func=_cmd_run, flow_preset=None)
 
 
 def _add_plot(sub: Subparsers, parents: Parents) -> None:
@@ -79,6 +109,13 @@ def _add_plot(sub: Subparsers, parents: Parents) -> None:
     pl.add_argument("--flow", type=float, default=200.0, help="traces: flow (gal/min)")
     pl.add_argument("--show-cycles", type=float, default=3, help="traces: cycles shown (3)")
     pl.set_defaults(func=_cmd_plot)
+
+
+def _preset_name(args: argparse.Namespace) -> str:
+    if args.preset and args.flow_preset:
+        raise ValueError(f"two presets: {args.preset!r} and {args.flow_preset!r} "
+                         "(after --flow); give one")
+    return args.preset or args.flow_preset or DEFAULT_PRESET
 
 
 def _row(r: SimulationResult) -> dict[str, float | int | str]:
@@ -106,7 +143,7 @@ def _row(r: SimulationResult) -> dict[str, float | int | str]:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     overrides = parse_overrides(args.set)
-    preset = get_preset(args.preset)
+    preset = get_preset(_preset_name(args))
     flows = args.flow
 
     def one(q: float) -> SimulationResult:
