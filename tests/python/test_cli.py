@@ -86,6 +86,26 @@ def test_two_presets_or_words_among_flows_are_errors(capsys):
         assert "argument --flow" in capsys.readouterr().err
 
 
+def test_plot_pdf_writes_one_pdf_per_figure(tmp_path, capsys):
+    base = tmp_path / "x.pdf"
+    assert main(["sweep", "--flows", "200", "300", "100", "--cycles", "20", "--analyse", "10",
+                 "--quiet", "--plot", str(base)]) == 0
+    out = capsys.readouterr().out
+    for kind in ("peaks", "z", "j"):
+        pdf = tmp_path / f"x-{kind}.pdf"
+        assert pdf.read_bytes()[:5] == b"%PDF-"
+        assert f"figure {pdf}" in out
+    assert not base.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x-j.pdf", "x-peaks.pdf", "x-z.pdf"]
+
+
+def test_plot_name_must_be_a_figure_format(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["sweep", "--plot", "x.jpg"])
+    assert exc.value.code == 2
+    assert "must end in" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("flag", ["--wob", "--wob-klbf"])
 def test_wob_is_an_alias_of_wob_klbf(flag, capsys):
     for command in ("run", "sweep", "map --param Fo --values 1 2"):
@@ -144,3 +164,9 @@ def test_set_and_cycles_appear_once_in_the_cli_source():
     assert [d[1] for d in declared if d[0] == "--workers"] == ["common.py"]
 
 
+def test_figure_path_keeps_the_suffix():
+    from vadsim.cli.common import figure_path
+
+    assert figure_path("x.png", "peaks") == "x-peaks.png"
+    assert figure_path("out/fig.svg", "map-j") == "out/fig-map-j.svg"
+    assert figure_path("a.b/x.pdf", "z") == "a.b/x-z.pdf"

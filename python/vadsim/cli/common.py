@@ -1,4 +1,4 @@
-"""What the sub-commands share: parent parsers, NAME=VALUE parsing, axes.
+"""What the sub-commands share: parent parsers, NAME=VALUE parsing, axes and figure names.
 
 Why this module exists: ``--set``, ``--cycles``, ``--wob-klbf`` and the execution options mean
 the same thing in every command that takes them, so each is declared once here, in an argparse
@@ -13,13 +13,17 @@ import argparse
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol
 
 __all__ = [
     "DEFAULT_PRESET",
+    "FIGURE_SUFFIXES",
     "LAWS",
     "Parents",
     "arange",
+    "figure_file",
+    "figure_path",
     "length_parent",
     "load_parent",
     "make_parents",
@@ -35,6 +39,7 @@ __all__ = [
 
 DEFAULT_PRESET = "7in-cde"
 LAWS = ("kelvin_voigt", "kelvin_voigt_no_tension", "hunt_crossley")
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 class Subparsers(Protocol):
@@ -155,6 +160,21 @@ def arange(lo: float, hi: float, step: float, flag: str) -> list[float]:
         raise ValueError(f"{flag} {lo:g} {hi:g} {step:g}: need FROM <= TO and STEP > 0")
     n = int(round((hi - lo) / step)) + 1
     return [lo + i * step for i in range(n) if lo + i * step <= hi + 1e-9 * max(1.0, abs(hi))]
+
+
+def figure_file(text: str) -> str:
+    """argparse type of ``--plot``: a file name ending in .png, .pdf or .svg."""
+    if Path(text).suffix.lower() not in FIGURE_SUFFIXES:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: a figure file must end in {', '.join(FIGURE_SUFFIXES)}")
+    return text
+
+
+def figure_path(base: str, kind: str) -> str:
+    """The file of one figure of several: ``figure_path("x.pdf", "peaks") == "x-peaks.pdf"``."""
+    suffix = Path(base).suffix
+    stem = base[: len(base) - len(suffix)] if suffix else base
+    return f"{stem}-{kind}{suffix or '.png'}"
 
 
 @contextmanager

@@ -20,6 +20,8 @@ from vadsim.cli.common import (
     Parents,
     Subparsers,
     arange,
+    figure_file,
+    figure_path,
     pandas_display,
     parse_overrides,
 )
@@ -86,7 +88,9 @@ def _add_gap_via(p: argparse.ArgumentParser) -> None:
 
 
 def _add_plot_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--plot", default=None, metavar="FILE.png", help="also draw the figures")
+    p.add_argument("--plot", default=None, metavar="FILE", type=figure_file,
+                   help="also draw the figures: FILE.png (or .pdf, .svg) names them, "
+                   "e.g. FILE-peaks.png, FILE-j.png")
 
 
 def _add_map(sub: Subparsers, parents: Parents) -> None:
@@ -161,10 +165,10 @@ def _finish_dataset(ds: Any, args: argparse.Namespace) -> None:
 
 
 def _draw(ds: Any, base: str, figures: dict[str, Callable[..., Any]]) -> list[str]:
-    """Draw each figure of ``ds`` to ``base`` with ``-kind`` before ``.png``; the files."""
+    """Draw each figure of ``ds`` to ``figure_path(base, kind)``; the files written."""
     paths = []
     for kind, fn in figures.items():
-        path = base.replace(".png", f"-{kind}.png")
+        path = figure_path(base, kind)
         fn(ds, path=path)
         paths.append(path)
     return paths
@@ -240,6 +244,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
             from vadsim import plots
 
             plots.design_comparison(res.original, res.changed, path=args.plot)
+            print(f"figure {args.plot}")
         return 0
     return _design_optimise(args)
 
@@ -261,7 +266,8 @@ def _design_study(args: argparse.Namespace) -> int:
     if args.plot:
         from vadsim import plots
 
-        _draw(ds, args.plot, {"regimes": plots.regime_map, "j": plots.j_map})
+        for path in _draw(ds, args.plot, {"regimes": plots.regime_map, "j": plots.j_map}):
+            print(f"figure {path}")
     return 0
 
 
@@ -286,6 +292,7 @@ def _design_optimise(args: argparse.Namespace) -> int:
         if opt.verified is not None:
             plots.design_comparison(opt.verified.original, opt.verified.changed,
                                     labels=("original", "optimised"), path=args.plot)
+            print(f"figure {args.plot}")
         # The optimum's map: flow x gap ratio over the published range, kS and Fo optimal.
         fixed = {k: v for k, v in opt.best.items() if k != "gap_ratio"}
         gap_map = sweep(args.preset, design.thesis_flows(args.preset, 1.0),
