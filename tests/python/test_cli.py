@@ -3,7 +3,7 @@
 import json
 
 import pytest
-from vadsim.cli import main
+from vadsim.cli import build_parser, main
 
 
 def test_run_json(capsys):
@@ -45,3 +45,128 @@ def test_map_prints_counts(capsys):
 def test_errors_exit_2_with_a_message(argv, needle, capsys):
     assert main(argv) == 2
     assert needle in capsys.readouterr().err
+
+
+def _subcommands(parser):
+    """{name: sub-parser} of ``vadsim``'s sub-commands."""
+    [sub] = [a for a in parser._actions if isinstance(a.choices, dict)]
+    return sub.choices
+
+
+def _actions(parser, flag):
+    return [a for a in parser._actions if flag in a.option_strings]
+
+
+def test_version_prints_the_package_version(capsys):
+    import vadsim
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out == f"vadsim {vadsim.__version__}\n"
+
+
+def test_preset_after_flow_is_the_preset_not_a_flow(capsys):
+    assert main(["run", "--flow", "200", "7in-rc", "--cycles", "20", "--analyse", "10",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["preset"] == "7in-rc"
+    assert [r["flow_gpm"] for r in out["runs"]] == [200.0]
+    args = build_parser().parse_args(["run", "--flow", "200", "250", "9.5in-pdc"])
+    assert (args.flow, args.flow_preset) == ([200.0, 250.0], "9.5in-pdc")
+
+
+def test_two_presets_or_words_among_flows_are_errors(capsys):
+    assert main(["run", "7in-cde", "--flow", "200", "7in-rc"]) == 2
+    assert "two presets" in capsys.readouterr().err
+    for argv in (["run", "--flow", "7in-rc"], ["run", "--flow", "200", "7in-rc", "300"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+        assert "argument --flow" in capsys.readouterr().err
+
+
+def test_plot_pdf_writes_one_pdf_per_figure(tmp_path, capsys):
+    base = tmp_path / "x.pdf"
+    assert main(["sweep", "--flows", "200", "300", "100", "--cycles", "20", "--analyse", "10",
+                 "--quiet", "--plot", str(base)]) == 0
+    out = capsys.readouterr().out
+    for kind in ("peaks", "z", "j"):
+        pdf = tmp_path / f"x-{kind}.pdf"
+        assert pdf.read_bytes()[:5] == b"%PDF-"
+        assert f"figure {pdf}" in out
+    assert not base.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x-j.pdf", "x-peaks.pdf", "x-z.pdf"]
+
+
+def test_plot_name_must_be_a_figure_format(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["sweep", "--plot", "x.jpg"])
+    assert exc.value.code == 2
+    assert "must end in" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag", ["--wob", "--wob-klbf"])
+def test_wob_is_an_alias_of_wob_klbf(flag, capsys):
+    for command in ("run", "sweep", "map --param Fo --values 1 2"):
+        args = build_parser().parse_args([*command.split(), flag, "30"])
+        assert args.wob_klbf == 30.0
+        assert "wob" not in vars(args)
+    assert main(["run", "--flow", "200", "--cycles", "20", "--analyse", "10", flag, "25"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "25 klbf" in lines[0]
+
+
+def test_wob_and_wob_klbf_give_the_same_run(capsys):
+    rows = []
+    for flag in ("--wob", "--wob-klbf"):
+        assert main(["run", "--flow", "200", "--cycles", "20", "--analyse", "10", flag, "25",
+                     "--json"]) == 0
+        rows.append(json.loads(capsys.readouterr().out)["runs"])
+    assert rows[0] == rows[1]
+
+
+def test_jobs_is_a_hidden_alias_of_workers(capsys):
+    parser = build_parser()
+    assert parser.parse_args(["run"]).workers == 2
+    assert parser.parse_args(["run", "--jobs", "3"]).workers == 3
+    assert parser.parse_args(["run", "--workers", "3"]).workers == 3
+    assert "--jobs" not in _subcommands(parser)["run"].format_help()
+
+
+def test_set_and_cycles_are_declared_once_and_shared():
+    subs = _subcommands(build_parser())
+    sets = {name: _actions(p, "--set") for name, p in subs.items() if _actions(p, "--set")}
+    assert set(sets) == {"run", "sweep", "map", "validate", "calibrate", "diagnose"}
+    assert all(len(a) == 1 for a in sets.values())
+    assert len({id(a[0]) for a in sets.values()}) == 1  # one Action object: the parent's
+    cycles = {name: _actions(p, "--cycles")[0] for name, p in subs.items()
+              if _actions(p, "--cycles")}
+    assert cycles["diagnose"].default == 300
+    assert {a.default for n, a in cycles.items() if n != "diagnose"} == {400}
+    assert len({id(a) for n, a in cycles.items() if n != "diagnose"}) == 1
+
+
+def test_set_and_cycles_appear_once_in_the_cli_source():
+    import ast
+    from pathlib import Path
+
+    import vadsim.cli
+
+    declared = []
+    for path in Path(vadsim.cli.__file__).parent.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "add_argument":
+                declared += [(a.value, path.name) for a in node.args
+                             if isinstance(a, ast.Constant)]
+    assert [d for d in declared if d[0] == "--set"] == [("--set", "common.py")]
+    assert [d for d in declared if d[0] == "--cycles"] == [("--cycles", "common.py")]
+    assert [d[1] for d in declared if d[0] == "--workers"] == ["common.py"]
+
+
+def test_figure_path_keeps_the_suffix():
+    from vadsim.cli.common import figure_path
+
+    assert figure_path("x.png", "peaks") == "x-peaks.png"
+    assert figure_path("out/fig.svg", "map-j") == "out/fig-map-j.svg"
+    assert figure_path("a.b/x.pdf", "z") == "a.b/x-z.pdf"

@@ -21,7 +21,7 @@ from vadsim.features import (
     sensor_features,
     summary_features,
 )
-from vadsim.labels import window_bounds, impact_frequency, peak_stats, window_peaks
+from vadsim.labels import impact_frequency, peak_stats, window_bounds, window_peaks
 
 RATE = 1024.0
 BAND_KEYS = [band_key(lo, hi) for lo, hi in DEFAULT_BANDS]

@@ -7,7 +7,6 @@ that arbitrary damage yields a CampaignError and nothing else.
 
 from __future__ import annotations
 
-import csv
 import importlib.util
 import math
 import re

@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from vadsim import RunSettings
 from vadsim.calibrate import calibrate, thesis_targets
+from vadsim.compare import event_residuals, simulate_event
 from vadsim.recordings import load_campaign, save_campaign
 from vadsim.synthetic import synthetic_campaign
-from vadsim import RunSettings
-from vadsim.compare import event_residuals, simulate_event
 from vadsim.validate import findings, validate, write_report
 
 SHORT = dict(cycles=80, analyse_cycles=50)

@@ -1,0 +1,241 @@
+"""Commands on recorded campaigns: ``validate``, ``calibrate``, ``diagnose`` and ``blind``.
+
+Why this module exists: these commands compare the model with recordings (RECORDINGS.md) and
+write reports; the comparison, fitting and report code lives in ``vadsim.fit`` and
+``vadsim.report``, imported inside the handlers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from vadsim.cli.common import (
+    Parents,
+    Subparsers,
+    length_parent,
+    pandas_display,
+    parse_overrides,
+    parse_pairs,
+    workers_parent,
+)
+
+__all__ = ["add_parsers", "parse_bounds"]
+
+
+def add_parsers(sub: Subparsers, parents: Parents) -> None:
+    """Add ``validate``, ``calibrate``, ``diagnose`` and ``blind`` to the sub-commands."""
+    va = sub.add_parser(
+        "validate", help="simulate a campaign's events and compare features with the recordings",
+        description="Simulate every event of CAMPAIGN (a folder with campaign.toml, the toml "
+        "file, or a shipped campaign: thesis:7in-cde, thesis:7in-rc, thesis:9.5in-pdc) at its "
+        "flow and WOB, pass each sensor's simulated acceleration through its chain, compute "
+        "the same features on both sides and write a report (tables, peaks vs flow, "
+        "standardised mismatch heat map).",
+        parents=[parents.overrides, parents.length, *parents.execution],
+    )
+    va.add_argument("campaign")
+    _add_report_options(va, "validation")
+    va.set_defaults(func=_cmd_validate)
+    _add_calibrate(sub, parents)
+    _add_diagnose(sub, parents)
+    bl = sub.add_parser(
+        "blind", help="blind benchmark of diagnose on campaigns with concealed physics",
+        description="Write campaigns (RECORDINGS.md format) from the 7in model plus one "
+        "concealed effect (each candidate at two magnitudes, and five with none), through the "
+        "sensor chain with noise; diagnose each from disk without the truth; score "
+        "identification, false alarms, parameter error and held-out improvement (scores.md, "
+        "scores.json). Resumes from finished results in OUT/results.",
+        parents=[workers_parent(what="worker processes per diagnosis")],
+    )
+    bl.add_argument("--out", default="blind-benchmark", help="folder (default blind-benchmark)")
+    bl.add_argument("--only", nargs="+", help="only these candidate ids (and 'none')")
+    bl.add_argument("--duration", type=float, default=8.0, help="seconds per event (8)")
+    bl.add_argument("--noise", type=float, default=0.3, help="sensor noise, g (0.3)")
+    bl.add_argument("--seed", type=int, default=2026)
+    bl.set_defaults(func=_cmd_blind)
+
+
+def _add_report_options(p: argparse.ArgumentParser, folder: str) -> None:
+    p.add_argument("--out", default=folder, help=f"report folder (default {folder})")
+    p.add_argument("--format", default="md", choices=["md", "html"], help="report format")
+
+
+def _add_calibrate(sub: Subparsers, parents: Parents) -> None:
+    ca = sub.add_parser(
+        "calibrate", help="fit parameters to a campaign (robust least squares, global stage)",
+        description="Fit --param parameters to CAMPAIGN's features by robust least squares "
+        "on standardised residuals: differential evolution within the bounds, then a local "
+        "soft-L1 polish; prints estimates with standard errors and the fit before and after. "
+        "--set fixes other parameters. "
+        "Example (the 9.5in withheld constants against the dissertation's simulations): "
+        "vadsim calibrate thesis:9.5in-pdc --param l0 --param wob --targets thesis-sim "
+        "--resolution full",
+        parents=[parents.overrides, parents.length, *parents.execution],
+    )
+    ca.add_argument("campaign")
+    ca.add_argument("--param", action="append", required=True,
+                    help="parameter to fit (repeatable), e.g. --param l0 --param wob")
+    ca.add_argument("--bounds", action="append", metavar="NAME=LO:HI",
+                    help="search range (defaults: l0 0.4:1.4 m, wob 200:2500 N/kg, "
+                    "else 0.5x-2x the start)")
+    ca.add_argument("--start", action="append", metavar="NAME=VALUE",
+                    help="starting value (default: the preset's)")
+    ca.add_argument("--targets", default="recorded", choices=["recorded", "thesis-sim"],
+                    help="fit the recordings, or the dissertation's own simulated results")
+    ca.add_argument("--keys", nargs="+", default=None,
+                    help="feature keys to fit (default: all that both sides have)")
+    ca.add_argument("--resolution", default="sensor", choices=["sensor", "full"],
+                    help="simulated features through the sensor chain or at full resolution")
+    ca.add_argument("--global", dest="global_stage", default="scan",
+                    choices=["scan", "de", "none"],
+                    help="global stage: dense Sobol scan (default), differential evolution, "
+                    "or none (local polish from --start only)")
+    ca.add_argument("--n-global", type=int, default=512, help="scan: points (512)")
+    ca.add_argument("--starts", type=int, default=3, help="scan: local polishes (3)")
+    ca.add_argument("--popsize", type=int, default=8, help="de: population factor (8)")
+    ca.add_argument("--maxiter", type=int, default=10, help="de: generations (10)")
+    ca.add_argument("--seed", type=int, default=1)
+    ca.add_argument("--profile", type=int, default=0, metavar="N",
+                    help="profile the cost along each parameter at N points")
+    ca.add_argument("--json", action="store_true")
+    ca.set_defaults(func=_cmd_calibrate)
+
+
+def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
+    dg = sub.add_parser(
+        "diagnose", help="locate a mismatch, fit candidate physics, select on held-out events",
+        description="Compare the base model with CAMPAIGN feature by feature, say where they "
+        "disagree, fit every candidate physics (hydraulic_force, contact_law, anvil_friction, "
+        "string_radiation, axial_lateral, sensor_chain), rank them on held-out events "
+        "(leave-one-flow-out and a high-flow block, AICc) and name the missing physics or "
+        "'none'. Writes a report (diagnosis.md/.html, diagnosis.json, figures). Example: "
+        "vadsim diagnose thesis:7in-cde --predict thesis:7in-rc --json",
+        parents=[parents.overrides, length_parent(cycles=300), parents.quiet,
+                 workers_parent(what="worker processes for the candidates")],
+    )
+    dg.add_argument("campaign")
+    _add_report_options(dg, "diagnosis")
+    dg.add_argument("--json", action="store_true",
+                    help="print one JSON object (missing_physics, parameters, located, "
+                    "heldout_error_before/after, ranking); progress goes to stderr")
+    dg.add_argument("--candidates", nargs="+", default=None,
+                    help="candidate ids to try (default: all)")
+    dg.add_argument("--predict", metavar="CAMPAIGN",
+                    help="predict another campaign with the chosen physics (nothing refitted)")
+    dg.add_argument("--phases", type=int, default=4,
+                    help="sampling phases the simulated features average over (4)")
+    dg.add_argument("--min-delta", type=float, default=10.0,
+                    help="held-out AICc margin a candidate needs over 'none' (10)")
+    dg.add_argument("--min-reduction", type=float, default=0.3,
+                    help="held-out RMS reduction a candidate needs, fraction (0.3)")
+    dg.set_defaults(func=_cmd_diagnose)
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from vadsim.fit.validate import validate
+    from vadsim.report.validation import write_validation_report
+
+    t0 = time.perf_counter()
+    res = validate(args.campaign, overrides=parse_overrides(args.set),
+                   cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers)
+    cmd = "vadsim validate " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else None
+    path = write_validation_report(res, args.out, fmt=args.format, command=cmd)
+    z = res.residuals
+    with pandas_display():
+        print(f"{res.campaign.name}: {len(res.campaign.events)} events simulated in "
+              f"{time.perf_counter() - t0:.1f} s with preset {res.preset.name}")
+        print("standardised residuals (model through the sensor chain - recorded) / spread:")
+        print(z.round(2).to_string())
+    print(f"report: {path}")
+    return 0
+
+
+def parse_bounds(items: list[str] | None) -> dict[str, tuple[float, float]]:
+    """``--bounds NAME=LO:HI`` (repeatable) -> ``{NAME: (LO, HI)}``."""
+    bounds = {}
+    for name, text in parse_pairs(items, "--bounds").items():
+        lo, sep, hi = text.partition(":")
+        if not sep:
+            raise ValueError(f"--bounds {name}={text}: expected LO:HI")
+        bounds[name] = (float(lo), float(hi))
+    return bounds
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from vadsim.fit.calibrate import calibrate
+
+    bounds = parse_bounds(args.bounds)
+    start = {k: float(v) for k, v in parse_pairs(args.start, "--start").items()}
+
+    def report(stage: str, n: int, cost: float, vals: dict) -> None:
+        if not args.quiet and n % 10 == 0:
+            print(f"  [{stage}] evaluation {n}: cost {cost:.4g} at "
+                  + ", ".join(f"{k}={v:.5g}" for k, v in vals.items()), flush=True)
+
+    res = calibrate(args.campaign, args.param, bounds=bounds or None, start=start or None,
+                    targets=args.targets, keys=args.keys, resolution=args.resolution,
+                    overrides=parse_overrides(args.set),
+                    global_stage={"scan": "scan", "de": "de", "none": False}[args.global_stage],
+                    n_global=args.n_global, n_starts=args.starts,
+                    popsize=args.popsize, maxiter=args.maxiter, seed=args.seed,
+                    profile_points=args.profile, cycles=args.cycles,
+                    analyse_cycles=args.analyse, workers=args.workers, callback=report)
+    if args.json:
+        print(json.dumps({"estimates": res.estimates, "stderr": res.stderr,
+                          "start": res.start, "cost_before": res.cost_before,
+                          "cost_after": res.cost_after, "evaluations": res.evaluations,
+                          "seconds": round(res.seconds, 2)}))
+        return 0
+    print(res.summary())
+    with pandas_display():
+        print("standardised residuals before:")
+        print(res.residuals_before.round(2).to_string())
+        print("after:")
+        print(res.residuals_after.round(2).to_string())
+        for name, prof in res.profile.items():
+            print(f"profile of the cost along {name}:")
+            print(prof.round(4).to_string(index=False))
+    return 0
+
+
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    from vadsim.fit.diagnose import diagnose, predict
+    from vadsim.report.diagnosis import write_diagnosis_report
+
+    def say(msg: str) -> None:
+        # with --json, stdout carries the JSON object only
+        print(f"  {msg}", file=sys.stderr if args.json else sys.stdout, flush=True)
+
+    diag = diagnose(args.campaign, candidates=args.candidates,
+                    overrides=parse_overrides(args.set), cycles=args.cycles,
+                    analyse_cycles=args.analyse, phases=args.phases,
+                    min_delta=args.min_delta, min_reduction=args.min_reduction,
+                    workers=args.workers, progress=None if args.quiet else say)
+    if args.predict:
+        predict(diag, args.predict, workers=args.workers)
+    path = write_diagnosis_report(diag, args.out, fmt=args.format)
+    if args.json:
+        print(json.dumps(diag.as_json()))
+        return 0
+    print(diag.summary())
+    print(f"report: {path}")
+    return 0
+
+
+def _cmd_blind(args: argparse.Namespace) -> int:
+    from vadsim.blind import DEFAULT_SCENARIOS, blind_benchmark
+
+    scenarios = DEFAULT_SCENARIOS
+    if args.only:
+        scenarios = tuple(s for s in DEFAULT_SCENARIOS if s.id in args.only or s.key in args.only)
+        if not scenarios:
+            raise ValueError(f"--only {' '.join(args.only)}: no scenario has that candidate")
+    sc = blind_benchmark(args.out, scenarios=scenarios, duration_s=args.duration,
+                         noise_g=args.noise, seed=args.seed, workers=args.workers,
+                         progress=lambda m: print(f"  {m}", flush=True))
+    print(Path(args.out, "scores.md").read_text())
+    return 0 if sc["campaigns"] else 1

@@ -1,0 +1,344 @@
+"""Commands over many runs: ``sweep`` (flow axis), ``map`` (flow x parameters), ``design``
+(the dissertation's design studies and an optimiser) and ``thesis`` (the 7in CDE check).
+
+Why this module exists: these commands share the flow axis, the resumable store, the NetCDF
+output and the figures; the study code itself lives in ``vadsim.studies``. The heavy modules
+(xarray, dask, matplotlib) are imported inside the handlers so ``vadsim run`` stays quick.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from vadsim.cli.common import (
+    DEFAULT_PRESET,
+    Parents,
+    Subparsers,
+    arange,
+    figure_file,
+    figure_path,
+    pandas_display,
+    parse_overrides,
+)
+from vadsim.model.presets import PRESETS, get_preset
+
+__all__ = ["add_parsers"]
+
+_GAP_VIA = ["spring", "anvil", "housing"]
+_MODES = ["independent", "continuation"]
+
+
+def add_parsers(sub: Subparsers, parents: Parents) -> None:
+    """Add ``sweep``, ``map``, ``design`` and ``thesis`` to the ``vadsim`` sub-commands."""
+    sw = sub.add_parser(
+        "sweep", help="flow sweep: labels at every flow, regimes along flow, NetCDF",
+        description="Run the model at every flow of an axis (in parallel, resumable with "
+        "--store) and print Z per surface, scenario, peaks, J*, impact frequency and "
+        "periodicity per flow, then the regime intervals along flow.",
+        parents=_grid_parents(parents),
+    )
+    _add_grid_options(sw)
+    sw.set_defaults(func=_cmd_sweep)
+    _add_map(sub, parents)
+    _add_design(sub, parents)
+    th = sub.add_parser(
+        "thesis", help="compare the 7in CDE flow sweep with the dissertation's regimes and peaks",
+        parents=[parents.length, *parents.execution],
+    )
+    th.add_argument("--mode", default="independent", choices=_MODES)
+    th.add_argument("--out", default=None, help="save the sweep (NetCDF)")
+    th.set_defaults(func=_cmd_thesis)
+
+
+def _grid_parents(parents: Parents) -> list[argparse.ArgumentParser]:
+    return [parents.length, parents.overrides, parents.load, *parents.execution]
+
+
+def _add_grid_options(p: argparse.ArgumentParser, detail: str = "full") -> None:
+    p.add_argument("preset", nargs="?", default=DEFAULT_PRESET,
+                   help="tool preset: " + ", ".join(PRESETS) + f" (default {DEFAULT_PRESET})")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--flows", type=float, nargs=3, metavar=("FROM", "TO", "STEP"),
+                   default=[200.0, 650.0, 10.0],
+                   help="flow axis in gal/min (default 200 650 10)")
+    g.add_argument("--hz", type=float, nargs=3, metavar=("FROM", "TO", "STEP"),
+                   help="flow axis given as excitation frequency in Hz, e.g. 21.3 69.3 0.5")
+    p.add_argument("--mode", default="independent", choices=_MODES,
+                   help="independent: every run from rest; continuation: each flow starts "
+                   "from the previous flow's final state, as in a field flow sweep")
+    _add_gap_via(p)
+    p.add_argument("--detail", default=detail, choices=["full", "map"],
+                   help="full: every label (peaks and J* at 20 kHz, impact frequency); map: "
+                   f"regimes, J*, periodicity only, ~25 %% faster (default {detail})")
+    p.add_argument("--store", default=None,
+                   help="folder of finished chunks: an interrupted run resumes from it")
+    p.add_argument("--out", default=None, help="save the dataset to this NetCDF file")
+    _add_plot_option(p)
+    p.add_argument("--json", action="store_true", help="print JSON records")
+
+
+def _add_gap_via(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--gap-via", default="spring", choices=_GAP_VIA,
+                   help="which length realises a gap change (default spring)")
+
+
+def _add_plot_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--plot", default=None, metavar="FILE", type=figure_file,
+                   help="also draw the figures: FILE.png (or .pdf, .svg) names them, "
+                   "e.g. FILE-peaks.png, FILE-j.png")
+
+
+def _add_map(sub: Subparsers, parents: Parents) -> None:
+    mp = sub.add_parser(
+        "map", help="2-D map over flow and a parameter (or two): regimes and J*",
+        description="Run the model over flow x one or two parameters. Parameters are Table "
+        "2.1 names (see 'vadsim presets 7in-cde') or gap_ratio / gap. Example (the "
+        "dissertation's gap map): vadsim map --param gap_ratio --values 0.85 1.5 --steps 85 "
+        "--hz 21.3 69.3 0.5 --out gap.nc --store gap.parts",
+        parents=_grid_parents(parents),
+    )
+    _add_grid_options(mp, detail="map")
+    mp.add_argument("--param", required=True, help="design parameter of the map")
+    mp.add_argument("--values", type=float, nargs="+", required=True,
+                    metavar="V", help="FROM TO (with --steps) or FROM TO STEP")
+    mp.add_argument("--steps", type=int, default=None, help="number of parameter values")
+    mp.add_argument("--param2", default=None, help="optional second parameter")
+    mp.add_argument("--values2", type=float, nargs=2, metavar=("FROM", "TO"))
+    mp.add_argument("--steps2", type=int, default=5)
+    mp.set_defaults(func=_cmd_map)
+
+
+def _add_design(sub: Subparsers, parents: Parents) -> None:
+    de = sub.add_parser(
+        "design", help="the dissertation's design studies, its recommended design, or an "
+        "optimisation of kS, gap and Fo together",
+        description="spring / gap / force: one-at-a-time map over the published range "
+        "(parametric.csv) with J* maximum and operating range per value. recommended: the "
+        "dissertation's recommended design vs the original (Fig. 5.7). optimise: "
+        "differential evolution over kS, gap ratio and Fo within the published ranges, "
+        "maximising J* and the operating range (J* within 10 %% of its maximum).",
+        parents=[parents.length, *parents.execution],
+    )
+    de.add_argument("study", choices=["spring", "gap", "force", "recommended", "optimise"])
+    de.add_argument("preset", nargs="?", default=DEFAULT_PRESET)
+    de.add_argument("--steps", type=int, default=21, help="parameter values of a study (21)")
+    _add_gap_via(de)
+    de.add_argument("--popsize", type=int, default=6, help="optimise: population factor (6)")
+    de.add_argument("--maxiter", type=int, default=8, help="optimise: generations (8)")
+    de.add_argument("--seed", type=int, default=1, help="optimise: random seed (1)")
+    de.add_argument("--store", default=None, help="study: resumable chunk folder")
+    de.add_argument("--out", default=None, help="save the map (NetCDF) or the designs (CSV)")
+    _add_plot_option(de)
+    de.set_defaults(func=_cmd_design)
+
+
+def _flows(args: argparse.Namespace) -> list[float]:
+    from vadsim.studies.sweep import flows_from_hz
+
+    if args.hz:
+        lo, hi, step = args.hz
+        return [float(q) for q in flows_from_hz(args.preset, arange(lo, hi, step, "--hz"))]
+    lo, hi, step = args.flows
+    return [float(q) for q in arange(lo, hi, step, "--flows")]
+
+
+def _sweep_options(args: argparse.Namespace) -> dict[str, Any]:
+    return dict(
+        overrides=parse_overrides(args.set), law=args.law, wob_klbf=args.wob_klbf,
+        cycles=args.cycles, analyse_cycles=args.analyse, mode=args.mode, gap_via=args.gap_via,
+        workers=args.workers, scheduler=args.scheduler, store=args.store,
+        progress=not args.quiet, detail=args.detail,
+    )
+
+
+def _finish_dataset(ds: Any, args: argparse.Namespace) -> None:
+    from vadsim.studies.sweep import save_dataset
+
+    if args.out:
+        save_dataset(ds, args.out)
+        print(f"saved {args.out}")
+
+
+def _draw(ds: Any, base: str, figures: dict[str, Callable[..., Any]]) -> list[str]:
+    """Draw each figure of ``ds`` to ``figure_path(base, kind)``; the files written."""
+    paths = []
+    for kind, fn in figures.items():
+        path = figure_path(base, kind)
+        fn(ds, path=path)
+        paths.append(path)
+    return paths
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from vadsim.studies import thesis
+    from vadsim.studies.sweep import sweep
+
+    t0 = time.perf_counter()
+    ds = sweep(args.preset, _flows(args), **_sweep_options(args))
+    elapsed = time.perf_counter() - t0
+    _finish_dataset(ds, args)
+    df = ds[["f_exc_hz", "z_spring", "z_impact", "z_off_bottom", "z_on_bottom", "scenario",
+             "x1_peak_mean_g", "x1_peak_std_g", "x5_peak_mean_g", "j_pos", "j_pos_kN",
+             "x1_impact_hz", "periodicity"]].to_dataframe()
+    if args.json:
+        print(df.reset_index().to_json(orient="records"))
+        return 0
+    with pandas_display():
+        print(df.round(3).to_string())
+    print(f"{ds.sizes['flow_gpm']} runs in {elapsed:.1f} s ({ds.attrs['mode']} mode)")
+    print("\nregimes along flow:")
+    print(thesis.regime_intervals(ds).to_string(index=False))
+    if args.plot:
+        from vadsim import plots
+
+        figures = {"peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow}
+        for path in _draw(ds, args.plot, figures):
+            print(f"figure {path}")
+    return 0
+
+
+def _cmd_map(args: argparse.Namespace) -> int:
+    from vadsim.studies.sweep import sweep
+
+    axes = {args.param: arange(*args.values, flag="--values") if args.steps is None
+            else list(np.linspace(args.values[0], args.values[1], args.steps))}
+    if args.param2:
+        axes[args.param2] = list(np.linspace(args.values2[0], args.values2[1], args.steps2))
+    t0 = time.perf_counter()
+    ds = sweep(args.preset, _flows(args), axes, **_sweep_options(args))
+    elapsed = time.perf_counter() - t0
+    _finish_dataset(ds, args)
+    n = int(np.prod([ds.sizes[d] for d in ds.scenario.dims]))
+    print(f"{n} runs in {elapsed:.1f} s ({n / elapsed:.1f} runs/s)")
+    counts = {int(k): int(v) for k, v in zip(*np.unique(ds.scenario.values,
+                                                         return_counts=True), strict=True)}
+    print("scenario counts:", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())))
+    k = np.unravel_index(int(np.nanargmax(ds.j_pos.values)), ds.j_pos.shape)
+    best = {d: float(ds[d].values[i]) for d, i in zip(ds.j_pos.dims, k, strict=True)}
+    print(f"max J* {float(ds.j_pos.values[k]):.2f} N/kg at {best}")
+    if args.plot and not args.param2:
+        from vadsim import plots
+
+        paths = _draw(ds, args.plot, {"regimes": plots.regime_map, "j": plots.j_map})
+        print("figures " + ", ".join(paths))
+    return 0
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from vadsim.studies import design
+
+    if args.study in design.STUDIES:
+        return _design_study(args)
+    if args.study == "recommended":
+        res = design.compare_designs(
+            design.RECOMMENDED, args.preset, gap_via=args.gap_via, workers=args.workers,
+            scheduler=args.scheduler, progress=not args.quiet, cycles=args.cycles,
+            analyse_cycles=args.analyse, detail="map")
+        _print_design(res)
+        if args.plot:
+            from vadsim import plots
+
+            plots.design_comparison(res.original, res.changed, path=args.plot)
+            print(f"figure {args.plot}")
+        return 0
+    return _design_optimise(args)
+
+
+def _design_study(args: argparse.Namespace) -> int:
+    from vadsim.studies import design
+
+    ds = design.one_at_a_time(args.study, args.preset, steps=args.steps, gap_via=args.gap_via,
+                              store=args.store, workers=args.workers, scheduler=args.scheduler,
+                              progress=not args.quiet, cycles=args.cycles,
+                              analyse_cycles=args.analyse, detail="map")
+    _finish_dataset(ds, args)
+    table = design.study_table(ds)
+    with pandas_display():
+        print(table.round(3).to_string())
+    j0 = table["j_max"].iloc[int(np.argmin(np.abs(table.index - _base_value(args))))]
+    print(f"max J* over the study: {table['j_max'].max():.2f} N/kg "
+          f"({table['j_max'].max() / j0 - 1:+.0%} vs the preset's value)")
+    if args.plot:
+        from vadsim import plots
+
+        for path in _draw(ds, args.plot, {"regimes": plots.regime_map, "j": plots.j_map}):
+            print(f"figure {path}")
+    return 0
+
+
+def _design_optimise(args: argparse.Namespace) -> int:
+    from vadsim.studies import design
+    from vadsim.studies.sweep import sweep
+
+    def report(gen: int, score: float, best: dict) -> None:
+        print(f"  generation {gen}: score {score:.3f} at "
+              + ", ".join(f"{k}={v:.4g}" for k, v in best.items()), flush=True)
+
+    opt = design.optimise(args.preset, gap_via=args.gap_via, popsize=args.popsize,
+                          maxiter=args.maxiter, seed=args.seed, workers=args.workers,
+                          callback=report)
+    print(f"best design: {opt.best} (score {opt.score:.3f}, {len(opt.history)} designs, "
+          f"{opt.seconds:.0f} s)")
+    if opt.verified is not None:
+        _print_design(opt.verified)
+    if args.plot:
+        from vadsim import plots
+
+        if opt.verified is not None:
+            plots.design_comparison(opt.verified.original, opt.verified.changed,
+                                    labels=("original", "optimised"), path=args.plot)
+            print(f"figure {args.plot}")
+        # The optimum's map: flow x gap ratio over the published range, kS and Fo optimal.
+        fixed = {k: v for k, v in opt.best.items() if k != "gap_ratio"}
+        gap_map = sweep(args.preset, design.thesis_flows(args.preset, 1.0),
+                        {"gap_ratio": np.linspace(*design.STUDIES["gap"].values(2), 14)},
+                        overrides=fixed, gap_via=args.gap_via, detail="map",
+                        workers=args.workers, progress=not args.quiet)
+        figures = {"map-regimes": plots.regime_map, "map-j": plots.j_map}
+        for path in _draw(gap_map, args.plot, figures):
+            print(f"figure {path}")
+    if args.out:
+        opt.history.to_csv(args.out, index=False)
+        print(f"saved every evaluated design to {args.out}")
+    return 0
+
+
+def _base_value(args: argparse.Namespace) -> float:
+    from vadsim.studies import design
+
+    s = design.STUDIES[args.study]
+    return 1.0 if s.parameter == "gap_ratio" else get_preset(args.preset).params[s.parameter]
+
+
+def _print_design(res: Any) -> None:
+    m0, m1 = res.metrics_original, res.metrics_changed
+    print(f"design {res.design} (gap via {res.gap_via})")
+    for name, m in (("original", m0), ("changed", m1)):
+        print(f"  {name:9s} max J* {m['j_max']:7.2f} N/kg ({m['j_max_kN']:.3f} kN) at "
+              f"{m['flow_at_max_gpm']:.0f} gal/min; operating range {m['range_from_gpm']:.0f}-"
+              f"{m['range_to_gpm']:.0f} gal/min; regime 1 up to {m['regime1_edge_gpm']:.0f}")
+    print(f"  max J* {res.j_ratio:+.0%}, operating range {res.range_ratio:+.0%}")
+
+
+def _cmd_thesis(args: argparse.Namespace) -> int:
+    from vadsim.studies import thesis
+    from vadsim.studies.sweep import sweep
+
+    ds = sweep("7in-cde", arange(200, 650, 10, "--flows"), cycles=args.cycles,
+               analyse_cycles=args.analyse, mode=args.mode, workers=args.workers,
+               progress=not args.quiet)
+    with pandas_display():
+        print("Impact regimes of the 7in CDE flow sweep vs dissertation section 4.1:")
+        print(thesis.compare_regimes(ds).to_string(index=False))
+        print("\nMean x1 peaks (full resolution) vs the dissertation's simulated peaks:")
+        print(thesis.compare_peaks(ds).round(3).to_string(index=False))
+    k = int(np.nanargmax(ds.j_pos.values))
+    print(f"\nmax J* {float(ds.j_pos[k]):.2f} N/kg at {float(ds.flow_gpm[k]):.0f} gal/min, "
+          f"scenario {int(ds.scenario[k])}")
+    _finish_dataset(ds, args)
+    return 0
