@@ -274,7 +274,8 @@ def calibrate(
     CalibrationResult
         ``interval``: 95 % intervals from the cost along each parameter (the others at the
         optimum): where the cost rises by ``CHI2_95 s^2`` above its minimum, ``s^2`` the
-        residual variance, at least 1 (the residuals are in units of the recordings' spreads). ``stderr`` from the Jacobian of the standardised residuals
+        residual variance, at least 1 (the residuals are in units of the recordings' spreads).
+        ``stderr`` from the Jacobian of the standardised residuals
         (``cov = s^2 (J^T J)^-1``) is kept for reference: on this rough cost (regime changes,
         phase aliases) it is far too small, so summaries quote the interval.
     """
