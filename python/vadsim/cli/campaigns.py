@@ -185,8 +185,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                     profile_points=args.profile, cycles=args.cycles,
                     analyse_cycles=args.analyse, workers=args.workers, callback=report)
     if args.json:
-        print(json.dumps({"estimates": res.estimates, "stderr": res.stderr,
-                          "start": res.start, "cost_before": res.cost_before,
+        print(json.dumps({"estimates": res.estimates, "interval": res.interval,
+                          "stderr": res.stderr, "start": res.start, "cost_before": res.cost_before,
                           "cost_after": res.cost_after, "evaluations": res.evaluations,
                           "seconds": round(res.seconds, 2)}))
         return 0
