@@ -96,3 +96,24 @@ def test_thesis_targets_and_bad_input():
         calibrate("thesis:7in-cde", ["l0"], start={"l0": 3.0})
     with pytest.raises(ValueError, match="resolution"):
         calibrate("thesis:7in-cde", ["l0"], resolution="fine")
+
+
+def test_validation_of_a_clipped_sensor_says_what_was_not_compared(tmp_path) -> None:
+    """A 5 g sensor at the bit clips every window: the report is written and says why the
+    peak features were not compared (it used to raise KeyError in the report)."""
+    import warnings
+
+    from vadsim.recordings import Sensor
+
+    sensors = {"x1": Sensor("x1", 1, 1024.0, 5.0), "x5": Sensor("x5", 5, 1024.0, 250.0)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        camp = synthetic_campaign("7in-cde", (200.0, 600.0), sensors=sensors, **SHORT)
+        res = validate(camp, **SHORT)
+    missing = res.not_compared()
+    peak = missing[missing.feature == "x1_peak_mean_g"]
+    assert len(peak) == 2 and peak.reason.str.contains("clipped at its 5 g range").all()
+    assert "x1_peak_mean_g" not in res.residuals.columns
+    assert any("x1_peak_mean_g could not be compared at 2 event(s)" in f for f in findings(res))
+    report = write_report(res, tmp_path / "rep")
+    assert "could not be compared" in report.read_text()

@@ -71,9 +71,41 @@ class ValidationResult:
                 row[f"{key} spread"] = f.spread
                 row[f"{key} sim"] = sim.sensor[key].value
                 row[f"{key} sim-full"] = sim.full.get(key, Feature(math.nan, math.nan, 0)).value
-                row[f"{key} z"] = self.residuals.loc[ev.id, key]
+                row[f"{key} z"] = (self.residuals.loc[ev.id, key] if key in self.residuals
+                                   else math.nan)
             rows.append(row)
         return pd.DataFrame(rows).set_index("event")
+
+    def not_compared(self) -> pd.DataFrame:
+        """Recorded features that could not be compared, and why (one row per event and
+        feature): a recording whose every window is clipped has no peak to compare, a spread
+        of zero cannot standardise, a feature the model lacks has no counterpart."""
+        rows = []
+        for ev in self.campaign.events:
+            sim = self.simulations[ev.id]
+            done = self.residuals.loc[ev.id].dropna().index if ev.id in self.residuals.index \
+                else []
+            for key, f in self.recorded[ev.id].items():
+                if key in done or key.startswith("z_"):
+                    continue
+                rows.append({"event": ev.id, "flow_gpm": ev.flow_gpm, "feature": key,
+                             "reason": _why_not_compared(self.campaign, key, f,
+                                                         sim.sensor.get(key))})
+        return pd.DataFrame(rows, columns=["event", "flow_gpm", "feature", "reason"])
+
+
+def _why_not_compared(campaign: Campaign, key: str, rec: Feature, model: Feature | None) -> str:
+    sensor = campaign.sensors.get(key.split("_", 1)[0])
+    if not math.isfinite(rec.value):
+        if key.endswith("_ratio"):
+            return "a ratio of peaks needs both sensors' peaks, and one has none (clipped)"
+        if sensor is not None and "peak" in key:
+            return (f"every 200 ms window of {sensor.name} holds a sample clipped at its "
+                    f"{sensor.range_g:g} g range: no recorded peak")
+        return "the recording gives no value"
+    if model is None or not math.isfinite(model.value):
+        return "the model gives no value (e.g. every simulated window clipped)"
+    return f"the recorded spread ({rec.spread:g}) cannot standardise"
 
 
 def validate(
@@ -149,6 +181,10 @@ def findings(result: ValidationResult, threshold: float = 1.0) -> list[str]:
                 parts.append(f"{verdict} at {name} (mean z {m:+.1f}, {len(z)} events)")
             if parts:
                 out.append(f"{key} {label}: the model " + "; ".join(parts) + ".")
+    missing = result.not_compared()
+    for key, group in missing.groupby("feature", sort=False):
+        out.append(f"{key} could not be compared at {len(group)} event(s): "
+                   f"{group['reason'].iloc[0]}.")
     return out
 
 
