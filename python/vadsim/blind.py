@@ -27,13 +27,14 @@ import json
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.fit.candidates import CANDIDATES
@@ -174,12 +175,12 @@ def blind_benchmark(
     cycles: float = 300,
     analyse_cycles: float = 200,
     workers: int | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: ProgressArg = True,
 ) -> dict[str, Any]:
     """Write the concealed campaigns, diagnose each from disk, score, and write
     ``scores.json`` and ``scores.md`` into ``folder``. Finished diagnoses are kept in
     ``results/`` and reused, so an interrupted benchmark resumes."""
-    say = progress or (lambda _m: None)
+    say = reporter(progress)
     root = Path(folder)
     settings = dict(flows=list(flows), duration_s=duration_s, noise_g=noise_g, seed=seed,
                     cycles=cycles, analyse_cycles=analyse_cycles, n_campaigns=len(scenarios))
@@ -194,19 +195,23 @@ def blind_benchmark(
     names = sorted(p.name for p in camp_dir.iterdir() if (p / "campaign.toml").is_file())
     results: dict[str, dict[str, Any]] = {}
     t0 = time.perf_counter()
+    progress_bar = bar(progress, len(names), "blind benchmark", "campaign")
     for i, name in enumerate(names):
         out = res_dir / f"{name}.json"
+        progress_bar.update()
         if out.is_file():
             results[name] = json.loads(out.read_text())
             continue
         camp = load_campaign(camp_dir / name)  # from disk: the diagnosis sees what a user has
-        diag = diagnose(camp, cycles=cycles, analyse_cycles=analyse_cycles, workers=workers)
+        diag = diagnose(camp, cycles=cycles, analyse_cycles=analyse_cycles, workers=workers,
+                        progress=False)
         js = diag.as_json()
         js["concealment"] = _concealment(diag)
         out.write_text(json.dumps(js, indent=2))
         results[name] = js
         say(f"[{i + 1}/{len(names)}] {name}: {js['missing_physics']} "
             f"({diag.elapsed_s:.0f} s; {time.perf_counter() - t0:.0f} s so far)")
+    progress_bar.close()
     truth = json.loads((camp_dir / "truth.json").read_text())  # read only to score
     sc = score(results, truth)
     sc["settings"] = settings

@@ -49,7 +49,7 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
         "sensor chain with noise; diagnose each from disk without the truth; score "
         "identification, false alarms, parameter error and held-out improvement (scores.md, "
         "scores.json). Resumes from finished results in OUT/results.",
-        parents=[workers_parent(what="worker processes per diagnosis")],
+        parents=[workers_parent(what="worker processes per diagnosis"), parents.quiet],
     )
     bl.add_argument("--out", default="blind-benchmark", help="folder (default blind-benchmark)")
     bl.add_argument("--only", nargs="+", help="only these candidate ids (and 'none')")
@@ -141,7 +141,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     res = validate(args.campaign, overrides=parse_overrides(args.set),
-                   cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers)
+                   cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers,
+                   progress=not args.quiet)
     cmd = "vadsim validate " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else None
     path = write_validation_report(res, args.out, fmt=args.format, command=cmd)
     z = res.residuals
@@ -183,7 +184,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                     n_global=args.n_global, n_starts=args.starts,
                     popsize=args.popsize, maxiter=args.maxiter, seed=args.seed,
                     profile_points=args.profile, cycles=args.cycles,
-                    analyse_cycles=args.analyse, workers=args.workers, callback=report)
+                    analyse_cycles=args.analyse, workers=args.workers, callback=report,
+                    progress=not args.quiet)
     if args.json:
         print(json.dumps({"estimates": res.estimates, "interval": res.interval,
                           "stderr": res.stderr, "start": res.start, "cost_before": res.cost_before,
@@ -206,15 +208,11 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from vadsim.fit.diagnose import diagnose, predict
     from vadsim.report.diagnosis import write_diagnosis_report
 
-    def say(msg: str) -> None:
-        # with --json, stdout carries the JSON object only
-        print(f"  {msg}", file=sys.stderr if args.json else sys.stdout, flush=True)
-
     diag = diagnose(args.campaign, candidates=args.candidates,
                     overrides=parse_overrides(args.set), cycles=args.cycles,
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
-                    workers=args.workers, progress=None if args.quiet else say)
+                    workers=args.workers, progress=not args.quiet)
     if args.predict:
         predict(diag, args.predict, workers=args.workers)
     path = write_diagnosis_report(diag, args.out, fmt=args.format)
@@ -236,6 +234,6 @@ def _cmd_blind(args: argparse.Namespace) -> int:
             raise ValueError(f"--only {' '.join(args.only)}: no scenario has that candidate")
     sc = blind_benchmark(args.out, scenarios=scenarios, duration_s=args.duration,
                          noise_g=args.noise, seed=args.seed, workers=args.workers,
-                         progress=lambda m: print(f"  {m}", flush=True))
+                         progress=False if args.quiet else lambda m: print(f"  {m}", flush=True))
     print(Path(args.out, "scores.md").read_text())
     return 0 if sc["campaigns"] else 1

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vadsim._progress import bar
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, ModelChange, recorded_features
 from vadsim.model.presets import Preset, canonical_name, make_params
@@ -223,6 +224,7 @@ def calibrate(
     workers: int | None = None,
     preset: Preset | None = None,
     callback: Callable[[str, int, float, dict[str, float]], None] | None = None,
+    progress: bool = True,
 ) -> CalibrationResult:
     """Fit ``names`` to a campaign by robust least squares on standardised residuals.
 
@@ -268,6 +270,8 @@ def calibrate(
         If > 0, also profile the cost along each parameter (others at the optimum).
     callback
         Called as ``callback(stage, evaluation, cost, params)``.
+    progress
+        Show a progress bar of the campaign evaluations and the best cost so far (stderr).
 
     Returns
     -------
@@ -291,8 +295,9 @@ def calibrate(
                    alias_refine=alias_refine, max_alias_rounds=max_alias_rounds,
                    max_nfev=max_nfev, popsize=popsize, maxiter=maxiter, seed=seed)
     with _objective(camp, settings, targets, keys, resolution, workers) as obj:
-        fit = _Calibration(obj, names, x0, lim, callback, **options)
-        result = fit.run(profile_points)
+        with bar(progress, None, f"calibrate {camp.name}", "evaluation") as b:
+            fit = _Calibration(obj, names, x0, lim, callback, bar=b, **options)
+            result = fit.run(profile_points)
     result.settings = dict(targets=targets if isinstance(targets, str) else "custom",
                            resolution=resolution, keys=list(keys) if keys else None,
                            bounds={n: list(lim[n]) for n in names}, cycles=cycles,
@@ -349,7 +354,7 @@ class _Calibration:
                  lim: dict[str, tuple[float, float]], callback, *, global_stage, n_global: int,
                  n_starts: int, alias_stripes: int, alias_grid: int, alias_refine: int,
                  max_alias_rounds: int, max_nfev: int, popsize: int, maxiter: int,
-                 seed: int) -> None:
+                 seed: int, bar: Any = None) -> None:
         if global_stage not in ("scan", True, "de", False):
             raise ValueError(f"global_stage = {global_stage!r} must be 'scan', 'de' or False")
         self.obj, self.names, self.x0, self.lim, self.callback = obj, names, x0, lim, callback
@@ -358,6 +363,8 @@ class _Calibration:
         self.alias_refine, self.max_alias_rounds = alias_refine, max_alias_rounds
         self.max_nfev, self.popsize, self.maxiter, self.seed = max_nfev, popsize, maxiter, seed
         self.evals = 0
+        self.bar = bar
+        self.best = math.inf
         self.history: list[dict[str, float]] = []
         self.scale = np.array([hi - lo for lo, hi in (lim[n] for n in names)])
         self.lo_u = np.array([lim[n][0] for n in names]) / self.scale
@@ -367,7 +374,12 @@ class _Calibration:
     def residuals(self, values: Mapping[str, float]) -> np.ndarray:
         out = _residuals(self.obj, values)
         self.evals += 1
-        self.history.append({**values, "cost": _soft_l1(out)})
+        cost = _soft_l1(out)
+        self.history.append({**values, "cost": cost})
+        if self.bar is not None:
+            self.best = min(self.best, cost)
+            self.bar.update()
+            self.bar.set_postfix_str(f"best cost {self.best:.4g}")
         return out
 
     def cost(self, stage: str, values: dict[str, float]) -> float:

@@ -45,6 +45,7 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
+from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, EventEval, ModelChange
 from vadsim.fit.candidates import CANDIDATES, Candidate, keys_for
@@ -441,8 +442,8 @@ def _fit_task(camp: Campaign, settings: RunSettings, phases: int, key: str, fold
 
 
 def _fit_all(camp: Campaign, settings: RunSettings, phases: int, keys: list[str], folds,
-             eids: list[str], ev: CampaignEvaluator, say: Callable[[str], None]
-             ) -> list[CandidateFit]:
+             eids: list[str], ev: CampaignEvaluator, say: Callable[[str], None],
+             tick: Callable[[], None] = lambda: None) -> list[CandidateFit]:
     """Fit every candidate: in worker processes when there are several workers."""
     if ev.workers <= 1 or len(keys) <= 1:
         fits = []
@@ -451,6 +452,7 @@ def _fit_all(camp: Campaign, settings: RunSettings, phases: int, keys: list[str]
             f = _fit_candidate(ev, CANDIDATES[k], folds, eids, say)
             f.n_evals = ev.n_evals - n0
             fits.append(f)
+            tick()
         return fits
     # model-side candidates first: they take longest
     order = sorted(keys, key=lambda k: CANDIDATES[k].side != "model")
@@ -465,6 +467,7 @@ def _fit_all(camp: Campaign, settings: RunSettings, phases: int, keys: list[str]
             f = fut.result()
             out[f.key] = f
             ev.n_evals += f.n_evals
+            tick()
             say(f"{f.key}: held-out RMS {f.heldout_rms:.3f}, score {f.score:.1f}")
     return [out[k] for k in keys]
 
@@ -484,7 +487,7 @@ def diagnose(
     min_reduction: float = 0.3,
     block_fraction: float = 0.3,
     workers: int | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: ProgressArg = True,
 ) -> Diagnosis:
     """Locate the mismatch, fit every candidate, rank on held-out events and choose.
 
@@ -509,14 +512,15 @@ def diagnose(
     workers
         Threads (default: all cores).
     progress
-        Called with one line per finished step (default: silent).
+        ``True`` (default): a progress bar over the candidates on stderr; ``False``: silent;
+        a callable: called with one line per finished step.
 
     Returns
     -------
     Diagnosis
     """
     t0 = time.perf_counter()
-    say = progress or (lambda _msg: None)
+    say = reporter(progress)
     camp = load_any_campaign(campaign)
     _check_thresholds(min_delta, min_reduction, block_fraction, phases)
     keys = keys_for(list(candidates) if candidates is not None else None)
@@ -525,12 +529,14 @@ def diagnose(
     folds = make_folds(camp, block_fraction)
     eids = [e.id for e in camp.events]
     with CampaignEvaluator(camp, settings, phases=phases,
-                           workers=workers or os.cpu_count() or 1) as ev:
+                           workers=workers or os.cpu_count() or 1) as ev, \
+            bar(progress, len(keys) + 1, f"diagnose {camp.name}", "candidate") as b:
         base = _fit_candidate(ev, None, folds, eids, say)
+        b.update()
         base_eval = ev.base(eids)
         located, located_events = _locate(camp, ev, base_eval)
         say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
-        fits = _fit_all(camp, settings, phases, keys, folds, eids, ev, say)
+        fits = _fit_all(camp, settings, phases, keys, folds, eids, ev, say, b.update)
         ranking = sorted(fits, key=lambda f: f.score)
         best = ranking[0] if ranking else None
         chosen = None

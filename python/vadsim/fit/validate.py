@@ -18,12 +18,13 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import Any
 
 import pandas as pd
 
+from vadsim._progress import bar
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import (
     EventSimulation,
@@ -120,11 +121,13 @@ def validate(
     preset: Preset | None = None,
     measurement: Measurement | None = None,
     settings: RunSettings | None = None,
+    progress: bool = True,
 ) -> ValidationResult:
     """Simulate every event of a campaign (in parallel threads) and compare features.
 
     The base model is ``settings``, or the campaign's preset (or ``preset``) with
-    ``overrides``, ``extras``, ``law``, ``cycles`` and ``analyse_cycles``.
+    ``overrides``, ``extras``, ``law``, ``cycles`` and ``analyse_cycles``. ``progress``
+    shows a progress bar over the events (stderr).
 
     Returns
     -------
@@ -140,6 +143,10 @@ def validate(
     with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
         futures = {ev.id: pool.submit(simulate_event, camp, ev, settings,
                                       measurement=measurement) for ev in camp.events}
+        with bar(progress, len(futures), f"validate {camp.name}", "event") as b:
+            for f in as_completed(futures.values()):
+                f.result()
+                b.update()
         sims = {k: f.result() for k, f in futures.items()}
     recorded = {ev.id: recorded_features(camp, ev, sims[ev.id].f_exc_hz) for ev in camp.events}
     order = [ev.id for ev in camp.events]
