@@ -1,4 +1,4 @@
-"""Tests of vadsim.plots (python/vadsim/plots.py).
+"""Tests of vadsim.plots (python/vadsim/plots/: flow, maps, design, traces, campaigns, style).
 
 Most figures are drawn from small synthetic datasets with the schema of vadsim.sweep (dims
 (*design_axes, "flow_gpm"), coordinate f_exc_hz along flow, one variable per sweep.FEATURES);
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import matplotlib as mpl
 import numpy as np
@@ -23,8 +24,12 @@ from matplotlib.colors import is_color_like, to_hex
 from matplotlib.figure import Figure
 from matplotlib.image import AxesImage
 from matplotlib.legend import Legend
+from matplotlib.text import Text
 from vadsim import plots
+from vadsim.features import Feature
 from vadsim.labels import regime_name
+from vadsim.plots.style import edges as cell_edges
+from vadsim.plots.style import feature_label
 from vadsim.sweep import FEATURES
 
 ALPHA = 0.67  # 7in tool: f = alpha Q / (2 pi)
@@ -82,7 +87,8 @@ def _dataset(dims: tuple[str, ...], coords: dict[str, np.ndarray], scen: np.ndar
         {name: (dims, data[name]) for name in FEATURES},
         coords={**coords, "f_exc_hz": ("flow_gpm", ALPHA * flows / (2 * math.pi))},
     )
-    ds.attrs.update(preset=preset, mode="independent", cycles=400.0, analyse_cycles=200.0)
+    ds.attrs.update(preset=preset, mode="independent", cycles=400.0, analyse_cycles=200.0,
+                    wob_klbf=20.0)
     if m_ref is not None:
         ds.attrs["m_ref_kg"] = m_ref
     return ds
@@ -193,6 +199,10 @@ def test_peaks_vs_flow_plots_mean_and_dispersion(tmp_path):
     np.testing.assert_array_equal(data_line.get_ydata(), ds.x1_peak_mean_g.values)
     # The failed point (scenario -1) is marked.
     assert np.asarray(line_by_label(ax, "failed run").get_xdata()).tolist() == [650.0]
+    # The error bar says what it is; the title carries the WOB and the length of the runs.
+    assert "simulated (vadsim): mean \u00b1 std of 200 ms peaks" in legend_texts(ax)
+    assert "WOB 20 klbf" in ax.get_title()
+    assert "independent runs of 400 cycles (last 200 analysed)" in ax.get_title()
 
 
 def test_peaks_vs_flow_x5_sensor(tmp_path):
@@ -409,7 +419,7 @@ def test_j_map_operating_range_outline_matches_the_cells():
     xs = np.concatenate([s[:, 0] for s in line.get_segments()])
     f = ALPHA * FLOWS_MAP / (2 * math.pi)
     # In range: 300 and 350 gal/min (160 and 150 >= 144); the outline spans their cells.
-    edges = plots._edges(f)
+    edges = cell_edges(f)
     assert math.isclose(xs.min(), edges[2]) and math.isclose(xs.max(), edges[4])
 
 
@@ -489,6 +499,7 @@ def test_time_traces_three_panels(tmp_path, run):
         assert sum(ln.get_linestyle() == ":" for ln in ax.get_lines()) == n_onsets
     assert "#2 impact face onset" in legend_texts(ax_a)
     assert "200 gal/min" in fig.get_suptitle() and "7in-cde" in fig.get_suptitle()
+    assert "run of 10 cycles (last 5 analysed)" in fig.get_suptitle()
 
 
 def test_time_traces_bad_input(run):
@@ -589,3 +600,121 @@ def test_draws_into_a_given_axes_without_pyplot():
     assert axes[0].get_ylabel() == "J* (kN)" and "Z*" in axes[1].get_ylabel()
     assert plt.get_fignums() == before  # nothing registered with pyplot
     assert mpl.rcParams["font.size"] == font  # the module's style does not leak
+
+
+# --------------------------------------------------------------------------------------------
+# Feature names and the figures of campaigns (validation and diagnosis)
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("key", "label"), [
+    ("x1_peak_mean_g", "x1 mean of 200 ms peaks (g)"),
+    ("x5_peak_std_g", "x5 std of 200 ms peaks (g)"),
+    ("x5_band_100_200_g", "x5 band RMS 100-200 Hz (g)"),
+    ("x1_band_0p5_20_g", "x1 band RMS 0.5-20 Hz (g)"),
+    ("x1_impact_hz", "x1 impact rate (Hz)"),
+    ("x1_impacts_per_cycle", "x1 impacts per cycle (\u2013)"),
+    ("x5_x1_peak_ratio", "x5/x1 ratio of 200 ms peaks (\u2013)"),
+    ("x1_clipped_windows", "x1 fraction of clipped windows (\u2013)"),
+    ("z_impact", "Z* at #2 impact face (impacts/cycle)"),
+    ("odd_thing_hz", "odd thing (Hz)"),
+    ("odd", "odd (\u2013)"),
+])
+def test_feature_label_names_a_feature_with_its_unit(key, label):
+    assert feature_label(key) == label
+
+
+CAMPAIGN_FLOWS = (200.0, 400.0, 600.0)
+CAMPAIGN_KEYS = ("x1_peak_mean_g", "x5_band_100_200_g", "x1_impact_hz", "x5_x1_peak_ratio")
+
+
+def fake_campaign(wob: float | None = None) -> SimpleNamespace:
+    events = [SimpleNamespace(id=f"e0{i + 1}", flow_gpm=q, wob_klbf=20.0)
+              for i, q in enumerate(CAMPAIGN_FLOWS)]
+    return SimpleNamespace(name="synthetic 7in-cde", wob_klbf=wob, events=events,
+                           sensors={"x1": None, "x5": None})
+
+
+def fake_recorded() -> dict[str, dict[str, Feature]]:
+    return {f"e0{i + 1}": {k: Feature(10.0 + i + j, 1.0, 10) for j, k in enumerate(CAMPAIGN_KEYS)}
+            for i in range(len(CAMPAIGN_FLOWS))}
+
+
+def fake_diagnosis() -> SimpleNamespace:
+    """What the diagnosis figures read of a vadsim.diagnose.Diagnosis (no model run)."""
+    eids = [f"e0{i + 1}" for i in range(len(CAMPAIGN_FLOWS))]
+    # held-out z grows with the key's position, so the order of the panels is known
+    heldout = {e: {k: (j + 1) * (i + 1) * 0.5 for j, k in enumerate(CAMPAIGN_KEYS)}
+               for i, e in enumerate(eids)}
+    sim = {e: {k: 12.0 + j for j, k in enumerate(CAMPAIGN_KEYS)} for e in eids}
+    return SimpleNamespace(
+        campaign=fake_campaign(), recorded=fake_recorded(),
+        baseline=SimpleNamespace(key="none", heldout=heldout, heldout_sim=sim),
+        chosen=SimpleNamespace(key="hydraulic_force[anvil]", heldout_sim=sim),
+        settings={"cycles": 160.0, "analyse_cycles": 100.0})
+
+
+def fake_validation() -> SimpleNamespace:
+    """What the validation figures read of a vadsim.validate.ValidationResult."""
+    rec = fake_recorded()
+    sims = {e: SimpleNamespace(sensor=dict(f), full=dict(f)) for e, f in rec.items()}
+    res = pd.DataFrame({k: [0.5, -1.0, 2.0] for k in CAMPAIGN_KEYS}, index=list(rec))
+    return SimpleNamespace(campaign=fake_campaign(wob=18.0), recorded=rec, simulations=sims,
+                           residuals=res, residuals_full=res * 2,
+                           preset=SimpleNamespace(name="7in-cde"),
+                           settings={"cycles": 400.0, "analyse_cycles": 200.0})
+
+
+def all_texts(fig: Figure) -> list[str]:
+    return [t.get_text() for t in fig.findobj(Text) if t.get_text()]
+
+
+def test_heldout_features_label_each_panel_in_words_with_units(tmp_path):
+    diag = fake_diagnosis()
+    fig = plots.heldout_features_figure(diag)
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    ranked = list(reversed(CAMPAIGN_KEYS))  # largest held-out error first
+    assert [ax.get_title() for ax in axes] == ranked
+    assert [ax.get_ylabel() for ax in axes] == [feature_label(k) for k in ranked]
+    assert axes[0].get_ylabel() == "x5/x1 ratio of 200 ms peaks (\u2013)"
+    assert axes[1].get_ylabel() == "x1 impact rate (Hz)"
+    assert all(ax.get_xlabel() == "flow rate (gal/min)" for ax in axes)
+    assert "recorded: mean \u00b1 std over 200 ms windows" in legend_texts(axes[0])
+    title = fig.get_suptitle()
+    assert "WOB 20 klbf" in title and "runs of 160 cycles (last 100 analysed)" in title
+    assert not any("gpm" in t for t in all_texts(fig))
+    assert plots.heldout_features(diag, tmp_path) == ["heldout_features.png"]
+    assert (tmp_path / "heldout_features.png").stat().st_size > 1000
+
+
+def test_mismatch_base_names_features_and_flows(tmp_path):
+    diag = fake_diagnosis()
+    fig = plots.mismatch_base_figure(diag)
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == [feature_label(k)
+                                                            for k in CAMPAIGN_KEYS]
+    assert "x5 band RMS 100-200 Hz (g)" in [t.get_text() for t in ax.get_xticklabels()]
+    assert [t.get_text() for t in ax.get_yticklabels()] == [
+        "e01 (200 gal/min)", "e02 (400 gal/min)", "e03 (600 gal/min)"]
+    assert "WOB 20 klbf" in ax.get_title() and "160 cycles" in ax.get_title()
+    assert not any("gpm" in t for t in all_texts(fig))
+    assert plots.mismatch_base(diag, tmp_path) == ["mismatch_base.png"]
+    assert (tmp_path / "mismatch_base.png").stat().st_size > 1000
+
+
+def test_validation_figures_name_features_units_and_conditions():
+    result = fake_validation()
+    fig = plots.validation_peaks(result)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["x1 mean of 200 ms peaks (g)"]
+    assert fig.axes[0].get_xlabel() == "flow rate (gal/min)"
+    assert "recorded: mean \u00b1 std over 200 ms windows" in legend_texts(fig.axes[0])
+    assert "WOB 18 klbf" in fig.get_suptitle()
+    assert "runs of 400 cycles (last 200 analysed)" in fig.get_suptitle()
+    fig = plots.validation_mismatch(result)
+    ticks = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    assert ticks[0] == "x1 mean of 200 ms peaks (g)"
+    assert ticks[len(CAMPAIGN_KEYS)] == "x1 mean of 200 ms peaks (g) [full res.]"
+    assert [t.get_text() for t in fig.axes[0].get_yticklabels()][0] == "e01 (200 gal/min)"
+    assert not any("gpm" in t for t in all_texts(fig))
+    result.residuals = result.residuals * np.nan
+    assert plots.validation_mismatch(result) is None

@@ -1,4 +1,8 @@
-"""The blind benchmark's score sheet (``scores.md``)."""
+"""The blind benchmark's score sheet (``scores.md``).
+
+This module turns the scores into tables; the text and the layout are the template
+``templates/blind.j2``, rendered by :func:`vadsim.report.render.render`.
+"""
 
 from __future__ import annotations
 
@@ -6,34 +10,50 @@ import json
 import math
 from typing import Any
 
+import pandas as pd
+
+from vadsim.report.render import render
+
 __all__ = ["blind_markdown"]
 
 
 def blind_markdown(sc: dict[str, Any], settings: dict[str, Any]) -> str:
-    lines = ["# Blind benchmark of `vadsim diagnose`", "",
-             f"Settings: {json.dumps(settings)}", "",
-             f"- identification rate: **{100 * sc['identification_rate']:.0f} %** of "
-             f"{sc['effect_campaigns']} campaigns with a concealed effect",
-             f"- false alarms: **{sc['false_alarms']} of {sc['null_campaigns']}** null campaigns",
-             f"- held-out improvement when the right physics is found: median "
-             f"{100 * sc['heldout_improvement_median']:.0f} %, smallest "
-             f"{100 * sc['heldout_improvement_min']:.0f} %", "",
-             "| candidate | identification |", "|---|---|"]
-    lines += [f"| {k} | {100 * v:.0f} % |" for k, v in sc["identification_by_candidate"].items()]
-    lines += ["", "| parameter | median relative error |", "|---|---|"]
-    lines += [f"| {k} | {100 * v:.1f} % |" for k, v in sc["parameter_error_median"].items()]
-    lines += ["", "| campaign | truth | found | parameters found | held-out RMS before -> after "
-              "| events untouched (RMS z < 1) | largest event RMS z | time (s) |",
-              "|---|---|---|---|---|---|---|---|"]
-    for r in sc["campaigns"]:
-        tp = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                       for k, v in r["truth_parameters"].items())
-        fp = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                       for k, v in r["parameters"].items())
+    """The score sheet in Markdown: rates, then identification per candidate, median
+    parameter errors and one row per campaign."""
+    by_candidate = _percent(sc["identification_by_candidate"], "candidate", "identification",
+                            ".0f")
+    errors = _percent(sc["parameter_error_median"], "parameter", "median relative error", ".1f")
+    return render("blind.j2", "md", title="Blind benchmark", sc=sc, settings=json.dumps(settings),
+                  by_candidate=by_candidate, parameter_errors=errors,
+                  campaigns=_campaigns(sc["campaigns"]))
+
+
+def _percent(shares: dict[str, float], name: str, column: str, spec: str) -> pd.DataFrame:
+    """A one-column table of shares as percentages, indexed by ``name``."""
+    return pd.DataFrame({column: [f"{100 * v:{spec}} %" for v in shares.values()]},
+                        index=pd.Index(list(shares), name=name))
+
+
+def _values(values: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                     for k, v in values.items())
+
+
+def _campaigns(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    """One row per campaign: truth, what was found, held-out gain, concealment, time."""
+    out = []
+    for r in rows:
         c = r["concealment"] or {}
-        mark = "" if r["correct"] else " **(wrong)**"
-        lines.append(f"| {r['campaign']} | {r['truth']} {tp} | {r['found']}{mark} | {fp} | "
-                     f"{r['heldout_before']:.2f} -> {r['heldout_after']:.2f} | "
-                     f"{c.get('events_untouched', '-')}/{c.get('events', '-')} | "
-                     f"{c.get('max_event_rms', math.nan):.1f} | {r['elapsed_s'] or 0:.0f} |")
-    return "\n".join(lines) + "\n"
+        out.append({
+            "campaign": r["campaign"],
+            "truth": f"{r['truth']} {_values(r['truth_parameters'])}",
+            "found": f"{r['found']}" + ("" if r["correct"] else " **(wrong)**"),
+            "parameters found": _values(r["parameters"]),
+            "held-out RMS before -> after": f"{r['heldout_before']:.2f} -> "
+                                            f"{r['heldout_after']:.2f}",
+            "events untouched (RMS z < 1)": f"{c.get('events_untouched', '-')}/"
+                                            f"{c.get('events', '-')}",
+            "largest event RMS z": f"{c.get('max_event_rms', math.nan):.1f}",
+            "time (s)": f"{r['elapsed_s'] or 0:.0f}",
+        })
+    return pd.DataFrame(out).set_index("campaign")
