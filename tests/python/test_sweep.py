@@ -21,6 +21,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -30,11 +31,13 @@ import pytest
 import vadsim
 import vadsim.sweep as vsweep
 import xarray as xr
+from vadsim.model.settings import ExtraSpec, RunSettings
 from vadsim.presets import get_preset
 from vadsim.sweep import (
     FEATURES,
     GAP_REALISATIONS,
     PointSpec,
+    StoreWarning,
     design_overrides,
     flow_sweep,
     flows_from_hz,
@@ -360,7 +363,8 @@ def test_corrupt_chunk_is_recomputed(tmp_path: Path, base_map: xr.Dataset) -> No
     store = tmp_path / "store"
     sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
     (store / "chunk-1-0.json").write_text('[{"z_spring": 1.0, ')
-    again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    with pytest.warns(StoreWarning, match=r"chunk-1-0\.json is not readable JSON"):
+        again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
     xr.testing.assert_identical(again, base_map)
     json.loads((store / "chunk-1-0.json").read_text())
 
@@ -457,11 +461,10 @@ def test_continuation_chains_final_states() -> None:
     """Each flow starts from the previous flow's y_end: run_point equals manual chaining."""
     gap = 1.1
     flows = (300.0, 350.0, 400.0)
-    spec = PointSpec(preset="7in-cde", flows=flows, values=(("gap_ratio", gap),),
-                     continuation=True, cycles=20.0, analyse_cycles=10.0)
+    settings = RunSettings("7in-cde", cycles=20.0, analyse_cycles=10.0)
+    spec = PointSpec(settings, flows, (("gap_ratio", gap),), continuation=True)
     rows = run_point(spec)
-    indep = run_point(PointSpec(preset="7in-cde", flows=flows, values=(("gap_ratio", gap),),
-                                cycles=20.0, analyse_cycles=10.0))
+    indep = run_point(PointSpec(settings, flows, (("gap_ratio", gap),)))
     over = design_overrides(get_preset("7in-cde").params, {"gap_ratio": gap})
     state = None
     for q, row, free in zip(flows, rows, indep, strict=True):
@@ -533,3 +536,245 @@ BAD_INPUT: list[tuple[str, Callable[[], object], str]] = [
 def test_bad_input(call: Callable[[], object], match: str) -> None:
     with pytest.raises(ValueError, match=re.escape(match)):
         call()
+
+
+# --- run settings (RunSettings) -------------------------------------------------------------
+
+
+def test_settings_bundle_equals_loose_keywords() -> None:
+    """sweep(settings=RunSettings(...)) is the same map as today's keyword call, and extras
+    may be ExtraSpec or mappings with 'kind'."""
+    extra = {"kind": "hydraulic", "acts_on": "anvil", "c": 1e-4}
+    flows = (200.0, 350.0)
+    loose = sweep("7in-cde", flows, {"gap_ratio": GAPS}, overrides={"kS": 3e5}, wob_klbf=5.0,
+                  extras=[extra], **QUIET)
+    settings = RunSettings("7in-cde", overrides={"kS": 3e5}, wob_klbf=5.0,
+                           extras=(ExtraSpec.of(**extra),), **SHORT)
+    bundled = sweep(None, flows, {"gap_ratio": GAPS}, settings=settings, progress=False)
+    xr.testing.assert_identical(bundled, loose)
+    spec = sweep("7in-cde", flows, {"gap_ratio": GAPS}, overrides={"kS": 3e5}, wob_klbf=5.0,
+                 extras=[ExtraSpec.of(**extra)], **QUIET)
+    xr.testing.assert_identical(spec, loose)
+    assert json.loads(loose.attrs["extras"]) == [extra]
+    with pytest.raises(ValueError, match="either settings or cycles"):
+        sweep(None, flows, settings=settings, cycles=30, progress=False)
+    with pytest.raises(ValueError, match="9.5in-pdc"):
+        sweep("9.5in-pdc", flows, settings=settings, progress=False)
+
+
+def test_point_spec_carries_run_settings_and_pickles() -> None:
+    """A chunk's spec is plain data that crosses a process boundary unchanged."""
+    import pickle
+
+    settings = RunSettings("7in-cde", overrides={"kS": 3e5}, **SHORT,
+                           extras=({"kind": "hydraulic", "acts_on": "anvil", "c": 1e-4},))
+    spec = PointSpec(settings, (200.0, 300.0), (("gap_ratio", 1.1),))
+    back = pickle.loads(pickle.dumps(spec))
+    assert back == spec
+    assert run_point(back) == run_point(spec)
+
+
+def test_flows_from_hz_uses_the_settings_alpha() -> None:
+    hz = [20.0, 40.0]
+    settings = RunSettings("7in-cde", overrides={"alpha": 0.5})
+    np.testing.assert_allclose(settings.f_exc_hz(flows_from_hz(settings, hz)), hz, rtol=1e-14)
+    np.testing.assert_array_equal(flows_from_hz("7in-cde", hz),
+                                  RunSettings("7in-cde").flows_for_hz(hz))
+
+
+# --- the store verifies what it reads --------------------------------------------------------
+
+
+def _doc(store: Path, key: str = "chunk-1-0") -> dict[str, Any]:
+    return json.loads((store / f"{key}.json").read_text())
+
+
+def _put(store: Path, doc: Any, key: str = "chunk-1-0", *, reseal: bool = False) -> None:
+    """Write a chunk file; ``reseal``: with a checksum that matches its (edited) rows, i.e. a
+    chunk that lies consistently, so that the other checks are the ones that catch it."""
+    if reseal:
+        doc["checksum"] = vsweep._checksum(doc["rows"])
+    (store / f"{key}.json").write_text(json.dumps(doc))
+
+
+def _short(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"] = doc["rows"][:2]
+    _put(store, doc, reseal=True)
+
+
+def _extra_row(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"].append(doc["rows"][0])
+    _put(store, doc, reseal=True)
+
+
+def _missing_key(store: Path) -> None:
+    doc = _doc(store)
+    del doc["rows"][1]["j_pos"]
+    _put(store, doc, reseal=True)
+
+
+def _unknown_key(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"][1]["j_max"] = 1.0
+    _put(store, doc, reseal=True)
+
+
+def _edited_value(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"][1]["z_spring"] = 2.3e251
+    _put(store, doc)
+
+
+def _wrong_type(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"][1]["z_spring"] = "many"
+    _put(store, doc, reseal=True)
+
+
+def _other_cell(store: Path) -> None:
+    """A valid chunk under another chunk's name (its rows belong to gap index 0)."""
+    _put(store, _doc(store, "chunk-0-0"), "chunk-1-0")
+
+
+def _old_rows(store: Path, rows: Any) -> None:
+    """vadsim 0.1's chunk: a bare list of rows."""
+    _put(store, rows)
+
+
+DAMAGE: list[tuple[str, Callable[[Path], None], str]] = [
+    ("fewer rows", _short, "has 2 rows for 4 flows"),
+    ("extra row", _extra_row, "has 5 rows for 4 flows"),
+    ("missing key", _missing_key, "row 1 lacks j_pos"),
+    ("unknown key", _unknown_key, "row 1 has unknown keys j_max"),
+    ("edited value", _edited_value, "does not match its checksum"),
+    ("wrong type", _wrong_type, "row 1 has z_spring = 'many'"),
+    ("another cell's chunk", _other_cell, "holds key 'chunk-0-0'"),
+    ("empty object", lambda s: _put(s, {}), "carries no grid hash or checksum"),
+    ("old chunk, fewer rows", lambda s: _old_rows(s, _doc(s)["rows"][:2]),
+     "carries no grid hash"),
+    ("old chunk, extra row", lambda s: _old_rows(s, _doc(s)["rows"] * 2),
+     "carries no grid hash"),
+    ("truncated", lambda s: (s / "chunk-1-0.json").write_text('{"grid": "'),
+     "is not readable JSON"),
+]
+
+
+@pytest.fixture(scope="module")
+def filled_store(tmp_path_factory: pytest.TempPathFactory, base_map: xr.Dataset) -> Path:
+    store = tmp_path_factory.mktemp("filled") / "store"
+    xr.testing.assert_identical(
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET), base_map)
+    return store
+
+
+def _copy_store(src: Path, dst: Path) -> Path:
+    import shutil
+
+    shutil.copytree(src, dst)
+    return dst
+
+
+@pytest.mark.parametrize("damage, why", [d[1:] for d in DAMAGE], ids=[d[0] for d in DAMAGE])
+def test_damaged_chunk_is_reported_and_recomputed(
+        damage: Callable[[Path], None], why: str, filled_store: Path, tmp_path: Path,
+        base_map: xr.Dataset, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A user's store with a short, empty, over-long or edited chunk gave garbage (2.3e251,
+    exit 0) or a traceback: now that chunk alone is recomputed, with a warning saying why."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    damage(store)
+    calls: list[tuple[tuple[str, float], ...]] = []
+    real = vsweep.run_point
+
+    def counting(spec: PointSpec) -> list[dict[str, Any]]:
+        calls.append(spec.values)
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", counting)
+    with pytest.warns(StoreWarning, match=re.escape(f"chunk-1-0.json {why}")) as caught:
+        again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    assert len(caught) == 1, [str(w.message) for w in caught]
+    assert calls == [(("gap_ratio", GAPS[1]),)]
+    xr.testing.assert_identical(again, base_map)
+    assert _doc(store) == _doc(filled_store)  # rewritten, verified
+    calls.clear()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    assert calls == []
+
+
+def test_chunk_records_grid_checksum_and_index_set(filled_store: Path) -> None:
+    doc = _doc(filled_store, "chunk-1-0")
+    grid_text = (filled_store / "grid.json").read_text()
+    import hashlib
+
+    assert doc["grid"] == hashlib.sha256(grid_text.encode()).hexdigest()
+    assert doc["key"] == "chunk-1-0" and doc["index"] == [1]
+    assert doc["values"] == [["gap_ratio", GAPS[1]]]
+    assert doc["flow_index"] == [0, 1, 2, 3] and doc["flows"] == list(FLOWS)
+    assert len(doc["rows"]) == len(FLOWS) and doc["checksum"].startswith("sha256:")
+
+
+GRID_DAMAGE: list[tuple[str, Callable[[Path], None], str]] = [
+    ("deleted", lambda s: (s / "grid.json").unlink(), "no grid.json"),
+    ("garbage", lambda s: (s / "grid.json").write_text("{not json"), "grid.json is unreadable"),
+    ("old format", lambda s: (s / "grid.json").write_text('{"version": 1, "flows": []}'),
+     "store format 1"),
+]
+
+
+@pytest.mark.parametrize("damage, match", [d[1:] for d in GRID_DAMAGE],
+                         ids=[d[0] for d in GRID_DAMAGE])
+@pytest.mark.parametrize("other", [False, True], ids=["same-settings", "other-settings"])
+def test_store_without_verifiable_grid_is_refused(
+        damage: Callable[[Path], None], match: str, other: bool, filled_store: Path,
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """grid.json deleted (or unreadable) while chunks remain: a map with other settings used
+    to reuse the old points silently; now the store is refused, whatever the settings."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    damage(store)
+    before = {f.name: f.read_bytes() for f in store.iterdir()}
+    monkeypatch.setattr(vsweep, "run_point", lambda spec: pytest.fail("computed"))
+    kw = {"overrides": {"kS": 3e5}} if other else {}
+    with pytest.raises(ValueError, match=re.escape(match)):
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET, **kw)
+    assert {f.name: f.read_bytes() for f in store.iterdir()} == before  # nothing touched
+
+
+def test_replaced_grid_json_is_refused(filled_store: Path, tmp_path: Path) -> None:
+    """grid.json rewritten for other settings over old chunks: the chunks' grid hash says so."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    # the grid.json of a map with other settings, put over the old chunks (as if by hand)
+    sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=tmp_path / "fresh",
+          overrides={"kS": 3e5}, **QUIET)
+    (store / "grid.json").write_text((tmp_path / "fresh" / "grid.json").read_text())
+    with pytest.raises(ValueError, match="belongs to grid .* grid.json was replaced"):
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, overrides={"kS": 3e5},
+              **QUIET)
+
+
+def test_other_grid_message_names_the_difference(filled_store: Path, tmp_path: Path) -> None:
+    store = _copy_store(filled_store, tmp_path / "store")
+    with pytest.raises(ValueError, match=r"different grid \(settings\.cycles 20\.0 -> 30\.0"):
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, cycles=30,
+              analyse_cycles=10, progress=False)
+
+
+def test_axis_order_is_part_of_the_grid(tmp_path: Path) -> None:
+    """The same axes in another order are another grid (chunk indices mean other cells)."""
+    store = tmp_path / "store"
+    ks = (2.0e5, 3.0e5)
+    sweep("7in-cde", FLOWS[:1], {"gap_ratio": GAPS, "kS": ks}, store=store, **QUIET)
+    with pytest.raises(ValueError, match="different grid"):
+        sweep("7in-cde", FLOWS[:1], {"kS": ks, "gap_ratio": GAPS}, store=store, **QUIET)
+
+
+def test_stray_chunk_file_is_reported(filled_store: Path, tmp_path: Path,
+                                      base_map: xr.Dataset) -> None:
+    store = _copy_store(filled_store, tmp_path / "store")
+    (store / "chunk-7-0.json").write_text("[]")
+    with pytest.warns(StoreWarning, match="chunk-7-0.json"):
+        again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    xr.testing.assert_identical(again, base_map)
