@@ -342,8 +342,16 @@ def test_resume_after_interrupt(sig: int, tmp_path: Path, resume_reference: xr.D
         return real(spec)
 
     monkeypatch.setattr(vsweep, "run_point", counting)
-    resumed = sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store,
-                    workers=2, **QUIET)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        resumed = sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store,
+                        workers=2, **QUIET)
+    # A killed child leaves its claims behind (Ctrl-C releases them): taken over, reported.
+    reported = [str(w.message) for w in caught if issubclass(w.category, StoreWarning)]
+    assert all("took over the claim" in m and "has ended" in m for m in reported), reported
+    if sig == signal.SIGINT:
+        assert reported == []
+    assert not list(store.glob("*.claim*"))
 
     assert len(calls) == len(set(calls)), f"a chunk was computed twice: {sorted(calls)}"
     assert set(calls) == RESUME_KEYS - before, "resume must compute exactly the missing chunks"
@@ -778,3 +786,154 @@ def test_stray_chunk_file_is_reported(filled_store: Path, tmp_path: Path,
     with pytest.warns(StoreWarning, match="chunk-7-0.json"):
         again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
     xr.testing.assert_identical(again, base_map)
+
+
+# --- several processes on one store: claims ----------------------------------------------------
+
+# 4 rows x 24 flows = 12 chunks of 8 flows; 10-cycle runs.
+SHARE_FLOWS = RESUME_FLOWS
+SHARE_GAPS = (0.85, 1.0, 1.15, 1.3)
+SHARE_KW: dict[str, Any] = dict(cycles=10, analyse_cycles=5)
+SHARE_KEYS = {f"chunk-{i}-{s}" for i in range(len(SHARE_GAPS))
+              for s in range(0, len(SHARE_FLOWS), RESUME_CHUNK)}
+
+# Each child waits for the other (a barrier of files) so that both really run at once, and
+# pauses after each chunk (numbers unchanged) so that neither is done before the other starts.
+_SHARER = """
+import json, sys, time
+from pathlib import Path
+import vadsim.sweep as vs
+store, barrier, me, out, kw = sys.argv[1:6]
+kw = json.loads(kw)
+computed = []
+_run = vs.run_point
+def counting(spec):
+    rows = _run(spec)
+    (name, value), = spec.values
+    computed.append(f"chunk-{kw['gaps'].index(value)}-{kw['flows'].index(spec.flows[0])}")
+    time.sleep(0.05)
+    return rows
+vs.run_point = counting
+Path(barrier, me).touch()
+deadline = time.monotonic() + 60
+while len(list(Path(barrier).iterdir())) < 2 and time.monotonic() < deadline:
+    time.sleep(0.005)
+ds = vs.sweep("7in-cde", kw["flows"], {"gap_ratio": kw["gaps"]}, store=store, workers=1,
+              progress=False, cycles=kw["cycles"], analyse_cycles=kw["analyse_cycles"])
+vs.save_dataset(ds, out)
+print(json.dumps(computed))
+"""
+
+
+@pytest.fixture(scope="module")
+def share_reference() -> xr.Dataset:
+    return sweep("7in-cde", SHARE_FLOWS, {"gap_ratio": SHARE_GAPS}, **SHARE_KW, progress=False)
+
+
+def test_two_processes_share_one_store(tmp_path: Path, share_reference: xr.Dataset) -> None:
+    """Two processes started together on one store compute each chunk once between them, and
+    each returns the whole map (loading what the other computed)."""
+    store, barrier = tmp_path / "store", tmp_path / "barrier"
+    barrier.mkdir()
+    kw = json.dumps(dict(flows=SHARE_FLOWS, gaps=SHARE_GAPS, **SHARE_KW))
+    procs = [subprocess.Popen([sys.executable, "-c", _SHARER, str(store), str(barrier), name,
+                               str(tmp_path / f"{name}.nc"), kw],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for name in ("a", "b")]
+    computed = []
+    try:
+        for proc in procs:
+            out, err = proc.communicate(timeout=300)  # only to catch a hang
+            assert proc.returncode == 0, err
+            assert "StoreWarning" not in err, err
+            computed.append(json.loads(out.strip().splitlines()[-1]))
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    a, b = computed
+    assert len(a) == len(set(a)) and len(b) == len(set(b))
+    assert not set(a) & set(b), f"computed by both: {sorted(set(a) & set(b))}"
+    assert set(a) | set(b) == SHARE_KEYS
+    assert len(a) >= 1 and len(b) >= 1, (len(a), len(b))
+    for name in ("a", "b"):
+        xr.testing.assert_identical(load_dataset(tmp_path / f"{name}.nc"), share_reference)
+    assert _chunks(store) == SHARE_KEYS
+    assert not list(store.glob("*.claim*"))
+
+
+def _claim(store: Path, key: str, pid: int, host: str | None = None) -> Path:
+    import socket
+
+    path = store / f"{key}.claim"
+    path.write_text(json.dumps({"pid": pid, "host": host or socket.gethostname(),
+                                "time": time.time(), "token": "someone-else"}))
+    return path
+
+
+def test_live_claim_is_waited_for_then_loaded(tmp_path: Path, filled_store: Path,
+                                              base_map: xr.Dataset,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """A chunk claimed by a live process is not computed: the sweep computes the rest, waits,
+    and loads that chunk once it appears."""
+    store = tmp_path / "store"
+    store.mkdir()
+    (store / "grid.json").write_text((filled_store / "grid.json").read_text())
+    claim = _claim(store, "chunk-0-0", os.getpid())  # this process: certainly alive
+    calls: list[tuple[tuple[str, float], ...]] = []
+    real = vsweep.run_point
+
+    def counting(spec: PointSpec) -> list[dict[str, Any]]:
+        calls.append(spec.values)
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", counting)
+    result: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            result["ds"] = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+        except BaseException as exc:  # reported below
+            result["error"] = exc
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 120
+    while "chunk-1-0" not in _chunks(store):
+        assert time.monotonic() < deadline and thread.is_alive(), result
+        time.sleep(0.01)
+    time.sleep(3 * vsweep._POLL_S)
+    assert thread.is_alive(), f"the sweep did not wait for the claimed chunk: {result}"
+    # the "other process" delivers its chunk, then lets go of the claim
+    (store / "chunk-0-0.json").write_text((filled_store / "chunk-0-0.json").read_text())
+    claim.unlink()
+    thread.join(timeout=120)
+    assert not thread.is_alive(), "the sweep hangs"
+    assert "error" not in result, result
+    assert calls == [(("gap_ratio", GAPS[1]),)]
+    xr.testing.assert_identical(result["ds"], base_map)
+
+
+def test_stale_claims_are_taken_over(tmp_path: Path, filled_store: Path, base_map: xr.Dataset
+                                     ) -> None:
+    """A claim whose process has ended (this host) or that shows no life for CLAIM_STALE_S
+    (any host) is taken over and reported."""
+    store = tmp_path / "store"
+    store.mkdir()
+    (store / "grid.json").write_text((filled_store / "grid.json").read_text())
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    _claim(store, "chunk-0-0", dead.pid)
+    old = _claim(store, "chunk-1-0", 1, host="elsewhere.example")
+    past = time.time() - vsweep.CLAIM_STALE_S - 60
+    os.utime(old, (past, past))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    messages = sorted(str(w.message) for w in caught if issubclass(w.category, StoreWarning))
+    assert len(messages) == 2, messages
+    assert f"chunk-0-0 (process {dead.pid} on this host has ended)" in messages[0]
+    assert "chunk-1-0 (no sign of life for" in messages[1]
+    xr.testing.assert_identical(ds, base_map)
+    assert not list(store.glob("*.claim*"))

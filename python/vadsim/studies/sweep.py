@@ -18,7 +18,10 @@ The store trusts nothing it reads. ``grid.json`` describes the grid; every chunk
 the grid's hash, the exact grid indices and flows it holds and a checksum of its rows, and a
 chunk that does not verify is recomputed with a :class:`StoreWarning` naming it and why. A
 store whose grid cannot be verified (``grid.json`` missing, unreadable or of another grid while
-chunks are present) is refused.
+chunks are present) is refused. Several processes on one store share the work: a process
+claims a chunk (``chunk-....claim``, created atomically) before computing it, skips chunks a
+live process has claimed and loads them once they are written; the claim of a process that
+ended (same host) or that gave no sign of life for :data:`CLAIM_STALE_S` is taken over.
 """
 
 from __future__ import annotations
@@ -28,7 +31,10 @@ import hashlib
 import json
 import math
 import os
+import socket
 import tempfile
+import time
+import uuid
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
@@ -47,6 +53,7 @@ from vadsim.model.simulate import SURFACES, G, SolverError
 from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
 
 __all__ = [
+    "CLAIM_STALE_S",
     "DERIVED_PARAMETERS",
     "FEATURES",
     "GAP_REALISATIONS",
@@ -95,6 +102,11 @@ _INT_FEATURES = ("scenario", "period", "steps")
 STORE_FORMAT = 2
 """Version of the store's files (1: vadsim 0.1, chunks without grid hash or checksum)."""
 
+CLAIM_STALE_S = 600.0
+"""A claim not refreshed for this long (s) is taken over, whoever holds it. A live process
+refreshes its claims every few seconds, so only a dead or frozen one reaches this age."""
+
+_HEARTBEAT_S = 5.0
 _POLL_S = 0.2
 _CHUNK_FLOWS = 8
 
@@ -106,7 +118,7 @@ _IMPACT_RATE_HZ = 4096.0
 
 
 class StoreWarning(UserWarning):
-    """Something in a sweep's store did not verify and was recomputed."""
+    """Something in a sweep's store did not verify and was recomputed (or was taken over)."""
 
 
 def flows_from_hz(preset: str | RunSettings, hz: Iterable[float]) -> np.ndarray:
@@ -428,6 +440,26 @@ def _atomic_write_text(path: Path, text: str, *, replace: bool = True) -> None:
         Path(tmp).unlink(missing_ok=True)
 
 
+def _read_json(path: Path) -> Any:
+    """The JSON in ``path``; None if missing, unreadable or not JSON."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+
+
+def _pid_alive(pid: Any) -> bool:
+    if not isinstance(pid, int) or isinstance(pid, bool) or pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: alive, someone else's
+        return True
+    return True
+
+
 def _differences(old: Mapping[str, Any], new: Mapping[str, Any], prefix: str = "") -> list[str]:
     """The fields where two grid documents differ, e.g. ``settings.cycles 20.0 -> 30.0``."""
     out = []
@@ -442,13 +474,17 @@ def _differences(old: Mapping[str, Any], new: Mapping[str, Any], prefix: str = "
 
 
 class _Store:
-    """A folder of finished chunks of one grid (``grid.json``) that verifies what it reads."""
+    """A folder of finished chunks of one grid (``grid.json``) that verifies what it reads and
+    shares the work with other processes through claim files."""
 
     def __init__(self, path: Path, grid: _Grid) -> None:
         self.path = path
         self.grid = grid
         self.where = f"store {path}"
+        self.host = socket.gethostname()
+        self._held: dict[str, str] = {}  # chunk key -> token of this process's claim
         self._bad: dict[str, tuple[int, int]] = {}  # chunk key -> (mtime, size) found bad
+        self._beat = time.monotonic()
 
     @classmethod
     def open(cls, path: str | os.PathLike[str], grid: _Grid) -> _Store:
@@ -538,6 +574,81 @@ class _Store:
         _atomic_write_text(self.path / f"{chunk.key}.json", json.dumps(doc, default=float))
         self._bad.pop(chunk.key, None)
 
+    # claims
+
+    def _claim_path(self, key: str) -> Path:
+        return self.path / f"{key}.claim"
+
+    def claim(self, chunk: _Chunk) -> bool:
+        """Claim ``chunk`` for this process (True), or find it held by a live one (False)."""
+        path = self._claim_path(chunk.key)
+        for _ in range(2):
+            token = uuid.uuid4().hex
+            try:
+                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                if not self._take_over_if_stale(path, chunk):
+                    return False
+                continue
+            with os.fdopen(fd, "w") as fh:
+                json.dump({"pid": os.getpid(), "host": self.host, "time": time.time(),
+                           "token": token}, fh)
+            self._held[chunk.key] = token
+            return True
+        return False
+
+    def _take_over_if_stale(self, path: Path, chunk: _Chunk) -> bool:
+        """Remove the claim at ``path`` if its holder is gone; True if it is gone now."""
+        holder = _read_json(path)
+        try:
+            age = time.time() - path.stat().st_mtime
+        except FileNotFoundError:
+            return True
+        holder = holder if isinstance(holder, dict) else {}
+        if age > CLAIM_STALE_S:
+            why = f"no sign of life for {age:.0f} s"
+        elif holder.get("host") == self.host and not _pid_alive(holder.get("pid")):
+            why = f"process {holder.get('pid')} on this host has ended"
+        else:
+            return False
+        aside = path.with_name(f"{path.name}.stale-{uuid.uuid4().hex}")
+        try:
+            os.rename(path, aside)
+        except FileNotFoundError:
+            return True
+        moved = _read_json(aside)
+        if (moved if isinstance(moved, dict) else {}) != holder:  # a fresh claim: put it back
+            with contextlib.suppress(OSError):
+                os.link(aside, path)
+            aside.unlink(missing_ok=True)
+            return False
+        aside.unlink(missing_ok=True)
+        warnings.warn(f"{self.where}: took over the claim of {chunk.key} ({why})", StoreWarning,
+                      stacklevel=5)
+        return True
+
+    def release(self, key: str) -> None:
+        """Remove this process's claim of chunk ``key`` (if it still is this process's)."""
+        token = self._held.pop(key, None)
+        path = self._claim_path(key)
+        holder = _read_json(path)
+        if token is not None and isinstance(holder, dict) and holder.get("token") == token:
+            path.unlink(missing_ok=True)
+
+    def release_all(self) -> None:
+        for key in list(self._held):
+            self.release(key)
+
+    def heartbeat(self) -> None:
+        """Refresh this process's claims (so that they never look stale while it lives)."""
+        now = time.monotonic()
+        if now - self._beat < _HEARTBEAT_S:
+            return
+        self._beat = now
+        for key in self._held:
+            with contextlib.suppress(OSError):
+                os.utime(self._claim_path(key))
+
 
 # --- running the chunks ----------------------------------------------------------------------
 
@@ -575,18 +686,40 @@ class _Queue:
     store: _Store | None
     bar: Any
     running: dict[Future, _Chunk] = field(default_factory=dict)
+    elsewhere: set[str] = field(default_factory=set)  # claimed by another live process
 
     def finish(self, chunk: _Chunk, rows: list[dict[str, Any]]) -> None:
         self.done[chunk.key] = rows
         if self.bar is not None:
             self.bar.update(len(rows))
 
+    def collect_elsewhere(self) -> None:
+        """Load the chunks other processes have finished since they were found claimed."""
+        if self.store is None:
+            return
+        for chunk in [c for c in self.pending if c.key in self.elsewhere]:
+            rows = self.store.read(chunk)
+            if rows is not None:
+                self.pending.remove(chunk)
+                self.finish(chunk, rows)
+
     def start(self, ex: Executor, slots: int) -> None:
-        """Submit pending chunks until ``slots`` are in flight."""
+        """Claim and submit pending chunks until ``slots`` are in flight."""
         for chunk in list(self.pending):
             if len(self.running) >= slots:
                 return
+            if self.store is not None:
+                if not self.store.claim(chunk):
+                    self.elsewhere.add(chunk.key)
+                    continue
+                rows = self.store.read(chunk)  # finished by another process since we looked?
+                if rows is not None:
+                    self.store.release(chunk.key)
+                    self.pending.remove(chunk)
+                    self.finish(chunk, rows)
+                    continue
             self.pending.remove(chunk)
+            self.elsewhere.discard(chunk.key)
             self.running[ex.submit(run_point, chunk.spec)] = chunk
 
     def harvest(self) -> None:
@@ -604,6 +737,7 @@ class _Queue:
             rows = fut.result()
             if self.store is not None:
                 self.store.write(chunk, rows)
+                self.store.release(chunk.key)
             self.finish(chunk, rows)
         if failed:
             failed[0].result()
@@ -611,15 +745,28 @@ class _Queue:
 def _run_chunks(todo: Sequence[_Chunk], done: dict[str, list[dict[str, Any]]],
                 store: _Store | None, workers: int | None, scheduler: str | None,
                 bar: Any) -> None:
-    """Compute ``todo``, adding every chunk to ``done`` and the store as it finishes."""
+    """Compute ``todo`` (adding to ``done`` and the store); with a store, share the work with
+    any other process on it: skip the chunks it claimed, then wait for and load them.
+
+    Interrupted (Ctrl-C) or failed, every chunk finished so far is already in the store, this
+    process's claims are released and the exception propagates.
+    """
     queue = _Queue(list(todo), done, store, bar)
     ex, close, slots = _make_executor(workers, scheduler)
     try:
         while queue.pending or queue.running:
+            if store is not None:
+                store.heartbeat()
+            queue.collect_elsewhere()
             queue.start(ex, slots)
-            queue.harvest()
+            if queue.running:
+                queue.harvest()
+            elif queue.pending:  # everything left is being computed elsewhere
+                time.sleep(_POLL_S)
     finally:
         close()
+        if store is not None:
+            store.release_all()
 
 
 # --- the inputs --------------------------------------------------------------------------------
@@ -844,9 +991,10 @@ def sweep(
         Address of a Dask scheduler (``"tcp://host:8786"``): the same grid runs there.
     store
         Folder for finished chunks. A sweep interrupted at any moment (Ctrl-C, kill -9) and
-        called again with the same arguments and store resumes where it stopped. Every chunk
-        is verified when read (a bad one is recomputed, with a :class:`StoreWarning`); a store
-        of a different grid, or whose grid cannot be verified, is refused (ValueError).
+        called again with the same arguments and store resumes where it stopped; several
+        processes given the same store share its chunks. Every chunk is verified when read (a
+        bad one is recomputed, with a :class:`StoreWarning`); a store of a different grid, or
+        whose grid cannot be verified, is refused (ValueError).
     progress
         Show a progress bar (tqdm) on stderr.
 
