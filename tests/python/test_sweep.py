@@ -937,3 +937,22 @@ def test_stale_claims_are_taken_over(tmp_path: Path, filled_store: Path, base_ma
     assert "chunk-1-0 (no sign of life for" in messages[1]
     xr.testing.assert_identical(ds, base_map)
     assert not list(store.glob("*.claim*"))
+
+
+
+def test_claim_left_on_a_finished_chunk_is_cleared(tmp_path: Path, filled_store: Path,
+                                                   base_map: xr.Dataset,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A process killed between writing a chunk and releasing its claim leaves the claim on a
+    finished chunk: the next sweep uses the chunk and removes the dead claim, silently."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    _claim(store, "chunk-1-0", dead.pid)
+    live = _claim(store, "chunk-0-0", os.getpid())  # a live holder about to release: kept
+    monkeypatch.setattr(vsweep, "run_point", lambda spec: pytest.fail("computed"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ds = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    xr.testing.assert_identical(ds, base_map)
+    assert list(store.glob("*.claim*")) == [live]

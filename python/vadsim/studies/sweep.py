@@ -542,6 +542,7 @@ class _Store:
             rows = self.read(chunk)
             if rows is not None:
                 done[chunk.key] = rows
+                self.drop_stale_claim(chunk)
         return done
 
     def read(self, chunk: _Chunk) -> list[dict[str, Any]] | None:
@@ -597,35 +598,54 @@ class _Store:
             return True
         return False
 
-    def _take_over_if_stale(self, path: Path, chunk: _Chunk) -> bool:
-        """Remove the claim at ``path`` if its holder is gone; True if it is gone now."""
+    def _stale(self, path: Path) -> tuple[dict[str, Any], str] | None:
+        """The holder of the claim at ``path`` and why it is stale; None if live or gone."""
         holder = _read_json(path)
         try:
             age = time.time() - path.stat().st_mtime
         except FileNotFoundError:
-            return True
+            return None
         holder = holder if isinstance(holder, dict) else {}
         if age > CLAIM_STALE_S:
-            why = f"no sign of life for {age:.0f} s"
-        elif holder.get("host") == self.host and not _pid_alive(holder.get("pid")):
-            why = f"process {holder.get('pid')} on this host has ended"
-        else:
-            return False
+            return holder, f"no sign of life for {age:.0f} s"
+        if holder.get("host") == self.host and not _pid_alive(holder.get("pid")):
+            return holder, f"process {holder.get('pid')} on this host has ended"
+        return None
+
+    @staticmethod
+    def _remove(path: Path, holder: dict[str, Any]) -> bool:
+        """Remove the claim at ``path`` if it still is ``holder``'s (a fresh claim that replaced
+        it meanwhile is put back); True if removed."""
         aside = path.with_name(f"{path.name}.stale-{uuid.uuid4().hex}")
         try:
             os.rename(path, aside)
         except FileNotFoundError:
-            return True
+            return False
         moved = _read_json(aside)
-        if (moved if isinstance(moved, dict) else {}) != holder:  # a fresh claim: put it back
+        if (moved if isinstance(moved, dict) else {}) != holder:
             with contextlib.suppress(OSError):
                 os.link(aside, path)
             aside.unlink(missing_ok=True)
             return False
         aside.unlink(missing_ok=True)
-        warnings.warn(f"{self.where}: took over the claim of {chunk.key} ({why})", StoreWarning,
-                      stacklevel=5)
         return True
+
+    def _take_over_if_stale(self, path: Path, chunk: _Chunk) -> bool:
+        """Remove the claim at ``path`` if its holder is gone; True if it is gone now."""
+        stale = self._stale(path)
+        if stale is None or not self._remove(path, stale[0]):
+            return not path.exists()
+        warnings.warn(f"{self.where}: took over the claim of {chunk.key} ({stale[1]})",
+                      StoreWarning, stacklevel=5)
+        return True
+
+    def drop_stale_claim(self, chunk: _Chunk) -> None:
+        """Remove a dead holder's claim of a chunk that is finished (it was killed between
+        writing the chunk and releasing the claim): nothing to take over, nothing to report."""
+        path = self._claim_path(chunk.key)
+        stale = self._stale(path) if path.exists() else None
+        if stale is not None:
+            self._remove(path, stale[0])
 
     def release(self, key: str) -> None:
         """Remove this process's claim of chunk ``key`` (if it still is this process's)."""
@@ -700,6 +720,7 @@ class _Queue:
         for chunk in [c for c in self.pending if c.key in self.elsewhere]:
             rows = self.store.read(chunk)
             if rows is not None:
+                self.store.drop_stale_claim(chunk)
                 self.pending.remove(chunk)
                 self.finish(chunk, rows)
 
