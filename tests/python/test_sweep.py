@@ -956,3 +956,48 @@ def test_claim_left_on_a_finished_chunk_is_cleared(tmp_path: Path, filled_store:
         ds = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
     xr.testing.assert_identical(ds, base_map)
     assert list(store.glob("*.claim*")) == [live]
+
+# --- Ctrl-C ----------------------------------------------------------------------------------
+
+
+def test_ctrl_c_keeps_finished_chunks_and_rerun_computes_the_rest(
+        tmp_path: Path, resume_reference: xr.Dataset, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A real SIGINT to the main thread while chunk N+1 runs: KeyboardInterrupt propagates,
+    the N finished chunks are in the store (verified), no claim is left, and a rerun computes
+    exactly the other chunks."""
+    store = tmp_path / "store"
+    n = 3
+    order: list[str] = []
+    release = threading.Event()
+    real = vsweep.run_point
+
+    def interrupting(spec: PointSpec) -> list[dict[str, Any]]:
+        order.append(_resume_key(spec))
+        if len(order) == n + 1:
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+            release.wait(60)  # still running when the interrupt lands
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", interrupting)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store, workers=1,
+                  **QUIET)
+    finally:
+        release.set()
+    assert _chunks(store) == set(order[:n])
+    assert not list(store.glob("*.claim*")) and not list(store.glob("*.tmp"))
+
+    calls: list[str] = []
+
+    def counting(spec: PointSpec) -> list[dict[str, Any]]:
+        calls.append(_resume_key(spec))
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", counting)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the kept chunks verify: nothing reported
+        again = sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store,
+                      **QUIET)
+    assert sorted(calls) == sorted(RESUME_KEYS - set(order[:n]))
+    xr.testing.assert_identical(again, resume_reference)

@@ -754,14 +754,21 @@ class _Queue:
         for fut in finished:
             if fut in failed:
                 continue
-            chunk = self.running.pop(fut)
+            chunk = self.running[fut]
             rows = fut.result()
             if self.store is not None:
                 self.store.write(chunk, rows)
                 self.store.release(chunk.key)
             self.finish(chunk, rows)
+            del self.running[fut]  # only now: an interrupt before this saves it again
         if failed:
             failed[0].result()
+
+    def save_finished(self) -> None:
+        """On the way out (Ctrl-C, a failure): keep every chunk that finished meanwhile."""
+        self.save([f for f in list(self.running) if f.done() and not f.cancelled()
+                   and f.exception() is None])
+
 
 def _run_chunks(todo: Sequence[_Chunk], done: dict[str, list[dict[str, Any]]],
                 store: _Store | None, workers: int | None, scheduler: str | None,
@@ -785,9 +792,12 @@ def _run_chunks(todo: Sequence[_Chunk], done: dict[str, list[dict[str, Any]]],
             elif queue.pending:  # everything left is being computed elsewhere
                 time.sleep(_POLL_S)
     finally:
-        close()
-        if store is not None:
-            store.release_all()
+        try:
+            queue.save_finished()
+        finally:
+            close()
+            if store is not None:
+                store.release_all()
 
 
 # --- the inputs --------------------------------------------------------------------------------
