@@ -1001,3 +1001,28 @@ def test_ctrl_c_keeps_finished_chunks_and_rerun_computes_the_rest(
                       **QUIET)
     assert sorted(calls) == sorted(RESUME_KEYS - set(order[:n]))
     xr.testing.assert_identical(again, resume_reference)
+
+
+# --- dataset conventions -----------------------------------------------------------------------
+
+
+def test_every_variable_and_coordinate_has_units_and_long_name(base_map: xr.Dataset) -> None:
+    ds = sweep("7in-cde", FLOWS[:2], {"kS": (2e5, 3e5), "alpha": (0.6, 0.7)}, **QUIET)
+    for d in (base_map, ds):
+        for name, var in d.variables.items():
+            assert isinstance(var.attrs.get("units"), str), name
+            assert isinstance(var.attrs.get("long_name"), str) and var.attrs["long_name"], name
+            if name not in STRING_VARS:
+                assert var.attrs["units"], name
+    units = {name: base_map[name].attrs["units"] for name in base_map.variables}
+    assert units["flow_gpm"] == "gal/min" and units["f_exc_hz"] == "Hz"
+    assert all(units[f"z_{s}"] == "1" for s in vadsim.SURFACES)
+    assert units["j_pos"] == "N/kg" and units["j_pos_kN"] == "kN"
+    assert units["x1_peak_mean_g"] == units["x5_peak_std_g"] == "g"
+    assert units["x1_impact_hz"] == "Hz" and units["gap_ratio"] == "1"
+    assert ds["kS"].attrs["units"] == "N/m/kg"
+    assert ds["kS"].attrs["long_name"] == "recoil spring stiffness (#1)"
+    assert ds["alpha"].attrs["units"] == "(rad/s)/(gal/min)"
+    assert ds["f_exc_hz"].attrs["units"] == "Hz" and ds["f_exc_hz"].dims == ("alpha", "flow_gpm")
+    for name in FEATURES:
+        assert base_map[name].attrs["description"] == FEATURES[name]

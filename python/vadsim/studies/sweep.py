@@ -47,7 +47,7 @@ import numpy as np
 import xarray as xr
 
 from vadsim._version import __version__ as _version
-from vadsim.model.presets import get_preset, make_params
+from vadsim.model.presets import get_preset, make_params, param_table
 from vadsim.model.settings import ExtraSpec, RunSettings
 from vadsim.model.simulate import SURFACES, G, SolverError
 from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
@@ -98,6 +98,35 @@ FEATURES: dict[str, str] = {
 
 _TEXT_FEATURES = ("periodicity", "error")
 _INT_FEATURES = ("scenario", "period", "steps")
+
+# CF-style (units, long_name) of every variable, so that xarray's plots label themselves.
+# "1" is a dimensionless number; labels (text) have no unit, hence "".
+_FEATURE_ATTRS: dict[str, tuple[str, str]] = {
+    "z_spring": ("1", "impacts per cycle, recoil spring (#1)"),
+    "z_impact": ("1", "impacts per cycle, impact face (#2)"),
+    "z_off_bottom": ("1", "impacts per cycle, off-bottom shoulder (#3)"),
+    "z_on_bottom": ("1", "impacts per cycle, on-bottom shoulder (#4)"),
+    "z_rock": ("1", "bit-rock contact onsets per cycle"),
+    "scenario": ("1", "impact scenario (Table 4.2)"),
+    "j_mean": ("N/kg", "mean impact-face force J*"),
+    "j_pos": ("N/kg", "impulse per second J*"),
+    "j_pos_kN": ("kN", "impulse per second J*"),
+    "x1_peak_mean_g": ("g", "bit-sub acceleration peaks, mean"),
+    "x1_peak_std_g": ("g", "bit-sub acceleration peaks, dispersion"),
+    "x5_peak_mean_g": ("g", "acceleration peaks above the motor, mean"),
+    "x5_peak_std_g": ("g", "acceleration peaks above the motor, dispersion"),
+    "x1_impact_hz": ("Hz", "bit-sub impact frequency"),
+    "period": ("1", "period of the steady response (excitation cycles)"),
+    "periodicity": ("", "periodicity of the steady response"),
+    "steps": ("1", "CVODE steps"),
+    "error": ("", "why the run failed"),
+}
+_FLOW_ATTRS = {"units": "gal/min", "long_name": "mud flow rate"}
+_F_EXC_ATTRS = {"units": "Hz", "long_name": "excitation frequency"}
+_DERIVED_ATTRS = {
+    "gap_ratio": {"units": "1", "long_name": "anvil-spring gap / preset gap"},
+    "gap": {"units": "l0", "long_name": "anvil-spring gap"},
+}
 
 STORE_FORMAT = 2
 """Version of the store's files (1: vadsim 0.1, chunks without grid hash or checksum)."""
@@ -910,24 +939,32 @@ def _fill(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[st
     return data
 
 
+def _axis_attrs(name: str) -> dict[str, str]:
+    if name in _DERIVED_ATTRS:
+        return dict(_DERIVED_ATTRS[name])
+    table = {row[0]: row for row in param_table()}
+    _, unit, meaning, _ = table.get(name, (name, "", name, ""))
+    return {"units": "1" if unit == "-" else unit, "long_name": meaning}
+
+
 def _coords(grid: _Grid) -> dict[str, Any]:
     """Flow, the design axes and the excitation frequency (which varies along ``alpha``)."""
     s = grid.settings
-    coords: dict[str, Any] = {"flow_gpm": grid.flows}
+    coords: dict[str, Any] = {"flow_gpm": ("flow_gpm", grid.flows, dict(_FLOW_ATTRS))}
     for name, values in grid.axes.items():
-        coords[name] = values
+        coords[name] = (name, values, _axis_attrs(name))
     if "alpha" in grid.axes:
         f = np.stack([s.with_changes(overrides={"alpha": float(a)}).f_exc_hz(grid.flows)
                       for a in grid.axes["alpha"]])
-        coords["f_exc_hz"] = (("alpha", "flow_gpm"), f)
+        coords["f_exc_hz"] = (("alpha", "flow_gpm"), f, dict(_F_EXC_ATTRS))
     else:
-        coords["f_exc_hz"] = ("flow_gpm", s.f_exc_hz(grid.flows))
+        coords["f_exc_hz"] = ("flow_gpm", s.f_exc_hz(grid.flows), dict(_F_EXC_ATTRS))
     return coords
 
 
 def _assemble(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[str, Any]]]
               ) -> xr.Dataset:
-    """Step 5: the dataset, one variable per feature."""
+    """Step 5: the dataset, one variable per feature, CF ``units``/``long_name`` everywhere."""
     data = _fill(grid, chunks, done)
     dims = (*grid.axes, "flow_gpm")
     ds = xr.Dataset(coords=_coords(grid))
@@ -937,7 +974,8 @@ def _assemble(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dic
             arr = arr.astype(np.int64)
         elif name in _TEXT_FEATURES:
             arr = arr.astype(str)
-        ds[name] = (dims, arr, {"description": desc})
+        units, long_name = _FEATURE_ATTRS[name]
+        ds[name] = (dims, arr, {"description": desc, "units": units, "long_name": long_name})
     s = grid.settings.as_dict()
     ds.attrs.update(
         preset=s["preset"], mode=grid.mode, cycles=s["cycles"],
@@ -1032,8 +1070,9 @@ def sweep(
     Returns
     -------
     xarray.Dataset
-        Dimensions ``(*axes, "flow_gpm")``; one variable per entry of :data:`FEATURES`;
-        attributes record the preset, mode, run length, overrides and the vadsim version.
+        Dimensions ``(*axes, "flow_gpm")``; one variable per entry of :data:`FEATURES`, each
+        with ``description``, ``units`` and ``long_name`` (coordinates too); attributes
+        record the preset, mode, run length, overrides and the vadsim version.
     """
     run = _settings_from(preset, settings, dict(
         overrides=overrides, law=law, extras=extras, wob_klbf=wob_klbf, cycles=cycles,
