@@ -7,8 +7,9 @@ that map through :func:`vadsim.sweep.sweep` (threads, a fresh resumable store, p
 and prints the wall time, the throughput and the median time of one run, so the number quoted
 in the note can be re-measured. Smaller grids (``--gap-steps 3 --hz-step 4``) smoke-test it.
 
-Per-run times are measured by wrapping the ``simulate`` the sweep module calls (in-process,
-thread-safe), so they are real single-run times, not chunk averages.
+Per-run times are measured by wrapping the ``simulate`` that ``RunSettings.run`` calls (the one
+way the sweep starts a run; in-process, thread-safe), so they are real single-run times, not
+chunk averages.
 
     python bench/bench_map.py                        # the full 8,245-run map (~5 min)
     python bench/bench_map.py --gap-steps 3 --hz-step 4 --out /tmp/map.nc
@@ -28,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import vadsim.sweep as vsweep
+import vadsim.model.settings as vsettings
 from vadsim.sweep import GAP_REALISATIONS, flows_from_hz, save_dataset, sweep
 
 TARGET_S = 300.0
@@ -101,8 +102,8 @@ def main(argv: list[str] | None = None) -> int:
 
     times: list[float] = []
     lock = threading.Lock()
-    real_simulate = vsweep.simulate
-    vsweep.simulate = _timed(real_simulate, times, lock)
+    real_simulate = vsettings.simulate
+    vsettings.simulate = _timed(real_simulate, times, lock)
     tmp = None
     store = args.store
     if store is None:
@@ -116,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
                    detail=args.detail)
         wall = time.perf_counter() - t0
     finally:
-        vsweep.simulate = real_simulate
+        vsettings.simulate = real_simulate
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
 

@@ -21,6 +21,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -30,11 +31,13 @@ import pytest
 import vadsim
 import vadsim.sweep as vsweep
 import xarray as xr
+from vadsim.model.settings import ExtraSpec, RunSettings
 from vadsim.presets import get_preset
 from vadsim.sweep import (
     FEATURES,
     GAP_REALISATIONS,
     PointSpec,
+    StoreWarning,
     design_overrides,
     flow_sweep,
     flows_from_hz,
@@ -339,8 +342,16 @@ def test_resume_after_interrupt(sig: int, tmp_path: Path, resume_reference: xr.D
         return real(spec)
 
     monkeypatch.setattr(vsweep, "run_point", counting)
-    resumed = sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store,
-                    workers=2, **QUIET)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        resumed = sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store,
+                        workers=2, **QUIET)
+    # A killed child leaves its claims behind (Ctrl-C releases them): taken over, reported.
+    reported = [str(w.message) for w in caught if issubclass(w.category, StoreWarning)]
+    assert all("took over the claim" in m and "has ended" in m for m in reported), reported
+    if sig == signal.SIGINT:
+        assert reported == []
+    assert not list(store.glob("*.claim*"))
 
     assert len(calls) == len(set(calls)), f"a chunk was computed twice: {sorted(calls)}"
     assert set(calls) == RESUME_KEYS - before, "resume must compute exactly the missing chunks"
@@ -360,7 +371,8 @@ def test_corrupt_chunk_is_recomputed(tmp_path: Path, base_map: xr.Dataset) -> No
     store = tmp_path / "store"
     sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
     (store / "chunk-1-0.json").write_text('[{"z_spring": 1.0, ')
-    again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    with pytest.warns(StoreWarning, match=r"chunk-1-0\.json is not readable JSON"):
+        again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
     xr.testing.assert_identical(again, base_map)
     json.loads((store / "chunk-1-0.json").read_text())
 
@@ -457,11 +469,10 @@ def test_continuation_chains_final_states() -> None:
     """Each flow starts from the previous flow's y_end: run_point equals manual chaining."""
     gap = 1.1
     flows = (300.0, 350.0, 400.0)
-    spec = PointSpec(preset="7in-cde", flows=flows, values=(("gap_ratio", gap),),
-                     continuation=True, cycles=20.0, analyse_cycles=10.0)
+    settings = RunSettings("7in-cde", cycles=20.0, analyse_cycles=10.0)
+    spec = PointSpec(settings, flows, (("gap_ratio", gap),), continuation=True)
     rows = run_point(spec)
-    indep = run_point(PointSpec(preset="7in-cde", flows=flows, values=(("gap_ratio", gap),),
-                                cycles=20.0, analyse_cycles=10.0))
+    indep = run_point(PointSpec(settings, flows, (("gap_ratio", gap),)))
     over = design_overrides(get_preset("7in-cde").params, {"gap_ratio": gap})
     state = None
     for q, row, free in zip(flows, rows, indep, strict=True):
@@ -533,3 +544,485 @@ BAD_INPUT: list[tuple[str, Callable[[], object], str]] = [
 def test_bad_input(call: Callable[[], object], match: str) -> None:
     with pytest.raises(ValueError, match=re.escape(match)):
         call()
+
+
+# --- run settings (RunSettings) -------------------------------------------------------------
+
+
+def test_settings_bundle_equals_loose_keywords() -> None:
+    """sweep(settings=RunSettings(...)) is the same map as today's keyword call, and extras
+    may be ExtraSpec or mappings with 'kind'."""
+    extra = {"kind": "hydraulic", "acts_on": "anvil", "c": 1e-4}
+    flows = (200.0, 350.0)
+    loose = sweep("7in-cde", flows, {"gap_ratio": GAPS}, overrides={"kS": 3e5}, wob_klbf=5.0,
+                  extras=[extra], **QUIET)
+    settings = RunSettings("7in-cde", overrides={"kS": 3e5}, wob_klbf=5.0,
+                           extras=(ExtraSpec.of(**extra),), **SHORT)
+    bundled = sweep(None, flows, {"gap_ratio": GAPS}, settings=settings, progress=False)
+    xr.testing.assert_identical(bundled, loose)
+    spec = sweep("7in-cde", flows, {"gap_ratio": GAPS}, overrides={"kS": 3e5}, wob_klbf=5.0,
+                 extras=[ExtraSpec.of(**extra)], **QUIET)
+    xr.testing.assert_identical(spec, loose)
+    assert json.loads(loose.attrs["extras"]) == [extra]
+    with pytest.raises(ValueError, match="either settings or cycles"):
+        sweep(None, flows, settings=settings, cycles=30, progress=False)
+    with pytest.raises(ValueError, match="9.5in-pdc"):
+        sweep("9.5in-pdc", flows, settings=settings, progress=False)
+
+
+def test_point_spec_carries_run_settings_and_pickles() -> None:
+    """A chunk's spec is plain data that crosses a process boundary unchanged."""
+    import pickle
+
+    settings = RunSettings("7in-cde", overrides={"kS": 3e5}, **SHORT,
+                           extras=({"kind": "hydraulic", "acts_on": "anvil", "c": 1e-4},))
+    spec = PointSpec(settings, (200.0, 300.0), (("gap_ratio", 1.1),))
+    back = pickle.loads(pickle.dumps(spec))
+    assert back == spec
+    assert run_point(back) == run_point(spec)
+
+
+def test_flows_from_hz_uses_the_settings_alpha() -> None:
+    hz = [20.0, 40.0]
+    settings = RunSettings("7in-cde", overrides={"alpha": 0.5})
+    np.testing.assert_allclose(settings.f_exc_hz(flows_from_hz(settings, hz)), hz, rtol=1e-14)
+    np.testing.assert_array_equal(flows_from_hz("7in-cde", hz),
+                                  RunSettings("7in-cde").flows_for_hz(hz))
+
+
+# --- the store verifies what it reads --------------------------------------------------------
+
+
+def _doc(store: Path, key: str = "chunk-1-0") -> dict[str, Any]:
+    return json.loads((store / f"{key}.json").read_text())
+
+
+def _put(store: Path, doc: Any, key: str = "chunk-1-0", *, reseal: bool = False) -> None:
+    """Write a chunk file; ``reseal``: with a checksum that matches its (edited) rows, i.e. a
+    chunk that lies consistently, so that the other checks are the ones that catch it."""
+    if reseal:
+        doc["checksum"] = vsweep._checksum(doc["rows"])
+    (store / f"{key}.json").write_text(json.dumps(doc))
+
+
+def _short(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"] = doc["rows"][:2]
+    _put(store, doc, reseal=True)
+
+
+def _extra_row(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"].append(doc["rows"][0])
+    _put(store, doc, reseal=True)
+
+
+def _missing_key(store: Path) -> None:
+    doc = _doc(store)
+    del doc["rows"][1]["j_pos"]
+    _put(store, doc, reseal=True)
+
+
+def _unknown_key(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"][1]["j_max"] = 1.0
+    _put(store, doc, reseal=True)
+
+
+def _edited_value(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"][1]["z_spring"] = 2.3e251
+    _put(store, doc)
+
+
+def _wrong_type(store: Path) -> None:
+    doc = _doc(store)
+    doc["rows"][1]["z_spring"] = "many"
+    _put(store, doc, reseal=True)
+
+
+def _other_cell(store: Path) -> None:
+    """A valid chunk under another chunk's name (its rows belong to gap index 0)."""
+    _put(store, _doc(store, "chunk-0-0"), "chunk-1-0")
+
+
+def _old_rows(store: Path, rows: Any) -> None:
+    """vadsim 0.1's chunk: a bare list of rows."""
+    _put(store, rows)
+
+
+DAMAGE: list[tuple[str, Callable[[Path], None], str]] = [
+    ("fewer rows", _short, "has 2 rows for 4 flows"),
+    ("extra row", _extra_row, "has 5 rows for 4 flows"),
+    ("missing key", _missing_key, "row 1 lacks j_pos"),
+    ("unknown key", _unknown_key, "row 1 has unknown keys j_max"),
+    ("edited value", _edited_value, "does not match its checksum"),
+    ("wrong type", _wrong_type, "row 1 has z_spring = 'many'"),
+    ("another cell's chunk", _other_cell, "holds key 'chunk-0-0'"),
+    ("empty object", lambda s: _put(s, {}), "carries no grid hash or checksum"),
+    ("old chunk, fewer rows", lambda s: _old_rows(s, _doc(s)["rows"][:2]),
+     "carries no grid hash"),
+    ("old chunk, extra row", lambda s: _old_rows(s, _doc(s)["rows"] * 2),
+     "carries no grid hash"),
+    ("truncated", lambda s: (s / "chunk-1-0.json").write_text('{"grid": "'),
+     "is not readable JSON"),
+]
+
+
+@pytest.fixture(scope="module")
+def filled_store(tmp_path_factory: pytest.TempPathFactory, base_map: xr.Dataset) -> Path:
+    store = tmp_path_factory.mktemp("filled") / "store"
+    xr.testing.assert_identical(
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET), base_map)
+    return store
+
+
+def _copy_store(src: Path, dst: Path) -> Path:
+    import shutil
+
+    shutil.copytree(src, dst)
+    return dst
+
+
+@pytest.mark.parametrize("damage, why", [d[1:] for d in DAMAGE], ids=[d[0] for d in DAMAGE])
+def test_damaged_chunk_is_reported_and_recomputed(
+        damage: Callable[[Path], None], why: str, filled_store: Path, tmp_path: Path,
+        base_map: xr.Dataset, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A user's store with a short, empty, over-long or edited chunk gave garbage (2.3e251,
+    exit 0) or a traceback: now that chunk alone is recomputed, with a warning saying why."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    damage(store)
+    calls: list[tuple[tuple[str, float], ...]] = []
+    real = vsweep.run_point
+
+    def counting(spec: PointSpec) -> list[dict[str, Any]]:
+        calls.append(spec.values)
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", counting)
+    with pytest.warns(StoreWarning, match=re.escape(f"chunk-1-0.json {why}")) as caught:
+        again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    assert len(caught) == 1, [str(w.message) for w in caught]
+    assert calls == [(("gap_ratio", GAPS[1]),)]
+    xr.testing.assert_identical(again, base_map)
+    assert _doc(store) == _doc(filled_store)  # rewritten, verified
+    calls.clear()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    assert calls == []
+
+
+def test_chunk_records_grid_checksum_and_index_set(filled_store: Path) -> None:
+    doc = _doc(filled_store, "chunk-1-0")
+    grid_text = (filled_store / "grid.json").read_text()
+    import hashlib
+
+    assert doc["grid"] == hashlib.sha256(grid_text.encode()).hexdigest()
+    assert doc["key"] == "chunk-1-0" and doc["index"] == [1]
+    assert doc["values"] == [["gap_ratio", GAPS[1]]]
+    assert doc["flow_index"] == [0, 1, 2, 3] and doc["flows"] == list(FLOWS)
+    assert len(doc["rows"]) == len(FLOWS) and doc["checksum"].startswith("sha256:")
+
+
+GRID_DAMAGE: list[tuple[str, Callable[[Path], None], str]] = [
+    ("deleted", lambda s: (s / "grid.json").unlink(), "no grid.json"),
+    ("garbage", lambda s: (s / "grid.json").write_text("{not json"), "grid.json is unreadable"),
+    ("old format", lambda s: (s / "grid.json").write_text('{"version": 1, "flows": []}'),
+     "store format 1"),
+]
+
+
+@pytest.mark.parametrize("damage, match", [d[1:] for d in GRID_DAMAGE],
+                         ids=[d[0] for d in GRID_DAMAGE])
+@pytest.mark.parametrize("other", [False, True], ids=["same-settings", "other-settings"])
+def test_store_without_verifiable_grid_is_refused(
+        damage: Callable[[Path], None], match: str, other: bool, filled_store: Path,
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """grid.json deleted (or unreadable) while chunks remain: a map with other settings used
+    to reuse the old points silently; now the store is refused, whatever the settings."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    damage(store)
+    before = {f.name: f.read_bytes() for f in store.iterdir()}
+    monkeypatch.setattr(vsweep, "run_point", lambda spec: pytest.fail("computed"))
+    kw = {"overrides": {"kS": 3e5}} if other else {}
+    with pytest.raises(ValueError, match=re.escape(match)):
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET, **kw)
+    assert {f.name: f.read_bytes() for f in store.iterdir()} == before  # nothing touched
+
+
+def test_replaced_grid_json_is_refused(filled_store: Path, tmp_path: Path) -> None:
+    """grid.json rewritten for other settings over old chunks: the chunks' grid hash says so."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    # the grid.json of a map with other settings, put over the old chunks (as if by hand)
+    sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=tmp_path / "fresh",
+          overrides={"kS": 3e5}, **QUIET)
+    (store / "grid.json").write_text((tmp_path / "fresh" / "grid.json").read_text())
+    with pytest.raises(ValueError, match="belongs to grid .* grid.json was replaced"):
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, overrides={"kS": 3e5},
+              **QUIET)
+
+
+def test_other_grid_message_names_the_difference(filled_store: Path, tmp_path: Path) -> None:
+    store = _copy_store(filled_store, tmp_path / "store")
+    with pytest.raises(ValueError, match=r"different grid \(settings\.cycles 20\.0 -> 30\.0"):
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, cycles=30,
+              analyse_cycles=10, progress=False)
+
+
+def test_axis_order_is_part_of_the_grid(tmp_path: Path) -> None:
+    """The same axes in another order are another grid (chunk indices mean other cells)."""
+    store = tmp_path / "store"
+    ks = (2.0e5, 3.0e5)
+    sweep("7in-cde", FLOWS[:1], {"gap_ratio": GAPS, "kS": ks}, store=store, **QUIET)
+    with pytest.raises(ValueError, match="different grid"):
+        sweep("7in-cde", FLOWS[:1], {"kS": ks, "gap_ratio": GAPS}, store=store, **QUIET)
+
+
+def test_stray_chunk_file_is_reported(filled_store: Path, tmp_path: Path,
+                                      base_map: xr.Dataset) -> None:
+    store = _copy_store(filled_store, tmp_path / "store")
+    (store / "chunk-7-0.json").write_text("[]")
+    with pytest.warns(StoreWarning, match="chunk-7-0.json"):
+        again = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    xr.testing.assert_identical(again, base_map)
+
+
+# --- several processes on one store: claims ----------------------------------------------------
+
+# 4 rows x 24 flows = 12 chunks of 8 flows; 10-cycle runs.
+SHARE_FLOWS = RESUME_FLOWS
+SHARE_GAPS = (0.85, 1.0, 1.15, 1.3)
+SHARE_KW: dict[str, Any] = dict(cycles=10, analyse_cycles=5)
+SHARE_KEYS = {f"chunk-{i}-{s}" for i in range(len(SHARE_GAPS))
+              for s in range(0, len(SHARE_FLOWS), RESUME_CHUNK)}
+
+# Each child waits for the other (a barrier of files) so that both really run at once, and
+# pauses after each chunk (numbers unchanged) so that neither is done before the other starts.
+_SHARER = """
+import json, sys, time
+from pathlib import Path
+import vadsim.sweep as vs
+store, barrier, me, out, kw = sys.argv[1:6]
+kw = json.loads(kw)
+computed = []
+_run = vs.run_point
+def counting(spec):
+    rows = _run(spec)
+    (name, value), = spec.values
+    computed.append(f"chunk-{kw['gaps'].index(value)}-{kw['flows'].index(spec.flows[0])}")
+    time.sleep(0.05)
+    return rows
+vs.run_point = counting
+Path(barrier, me).touch()
+deadline = time.monotonic() + 60
+while len(list(Path(barrier).iterdir())) < 2 and time.monotonic() < deadline:
+    time.sleep(0.005)
+ds = vs.sweep("7in-cde", kw["flows"], {"gap_ratio": kw["gaps"]}, store=store, workers=1,
+              progress=False, cycles=kw["cycles"], analyse_cycles=kw["analyse_cycles"])
+vs.save_dataset(ds, out)
+print(json.dumps(computed))
+"""
+
+
+@pytest.fixture(scope="module")
+def share_reference() -> xr.Dataset:
+    return sweep("7in-cde", SHARE_FLOWS, {"gap_ratio": SHARE_GAPS}, **SHARE_KW, progress=False)
+
+
+def test_two_processes_share_one_store(tmp_path: Path, share_reference: xr.Dataset) -> None:
+    """Two processes started together on one store compute each chunk once between them, and
+    each returns the whole map (loading what the other computed)."""
+    store, barrier = tmp_path / "store", tmp_path / "barrier"
+    barrier.mkdir()
+    kw = json.dumps(dict(flows=SHARE_FLOWS, gaps=SHARE_GAPS, **SHARE_KW))
+    procs = [subprocess.Popen([sys.executable, "-c", _SHARER, str(store), str(barrier), name,
+                               str(tmp_path / f"{name}.nc"), kw],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for name in ("a", "b")]
+    computed = []
+    try:
+        for proc in procs:
+            out, err = proc.communicate(timeout=300)  # only to catch a hang
+            assert proc.returncode == 0, err
+            assert "StoreWarning" not in err, err
+            computed.append(json.loads(out.strip().splitlines()[-1]))
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    a, b = computed
+    assert len(a) == len(set(a)) and len(b) == len(set(b))
+    assert not set(a) & set(b), f"computed by both: {sorted(set(a) & set(b))}"
+    assert set(a) | set(b) == SHARE_KEYS
+    assert len(a) >= 1 and len(b) >= 1, (len(a), len(b))
+    for name in ("a", "b"):
+        xr.testing.assert_identical(load_dataset(tmp_path / f"{name}.nc"), share_reference)
+    assert _chunks(store) == SHARE_KEYS
+    assert not list(store.glob("*.claim*"))
+
+
+def _claim(store: Path, key: str, pid: int, host: str | None = None) -> Path:
+    import socket
+
+    path = store / f"{key}.claim"
+    path.write_text(json.dumps({"pid": pid, "host": host or socket.gethostname(),
+                                "time": time.time(), "token": "someone-else"}))
+    return path
+
+
+def test_live_claim_is_waited_for_then_loaded(tmp_path: Path, filled_store: Path,
+                                              base_map: xr.Dataset,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """A chunk claimed by a live process is not computed: the sweep computes the rest, waits,
+    and loads that chunk once it appears."""
+    store = tmp_path / "store"
+    store.mkdir()
+    (store / "grid.json").write_text((filled_store / "grid.json").read_text())
+    claim = _claim(store, "chunk-0-0", os.getpid())  # this process: certainly alive
+    calls: list[tuple[tuple[str, float], ...]] = []
+    real = vsweep.run_point
+
+    def counting(spec: PointSpec) -> list[dict[str, Any]]:
+        calls.append(spec.values)
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", counting)
+    result: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            result["ds"] = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+        except BaseException as exc:  # reported below
+            result["error"] = exc
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 120
+    while "chunk-1-0" not in _chunks(store):
+        assert time.monotonic() < deadline and thread.is_alive(), result
+        time.sleep(0.01)
+    time.sleep(3 * vsweep._POLL_S)
+    assert thread.is_alive(), f"the sweep did not wait for the claimed chunk: {result}"
+    # the "other process" delivers its chunk, then lets go of the claim
+    (store / "chunk-0-0.json").write_text((filled_store / "chunk-0-0.json").read_text())
+    claim.unlink()
+    thread.join(timeout=120)
+    assert not thread.is_alive(), "the sweep hangs"
+    assert "error" not in result, result
+    assert calls == [(("gap_ratio", GAPS[1]),)]
+    xr.testing.assert_identical(result["ds"], base_map)
+
+
+def test_stale_claims_are_taken_over(tmp_path: Path, filled_store: Path, base_map: xr.Dataset
+                                     ) -> None:
+    """A claim whose process has ended (this host) or that shows no life for CLAIM_STALE_S
+    (any host) is taken over and reported."""
+    store = tmp_path / "store"
+    store.mkdir()
+    (store / "grid.json").write_text((filled_store / "grid.json").read_text())
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    _claim(store, "chunk-0-0", dead.pid)
+    old = _claim(store, "chunk-1-0", 1, host="elsewhere.example")
+    past = time.time() - vsweep.CLAIM_STALE_S - 60
+    os.utime(old, (past, past))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    messages = sorted(str(w.message) for w in caught if issubclass(w.category, StoreWarning))
+    assert len(messages) == 2, messages
+    assert f"chunk-0-0 (process {dead.pid} on this host has ended)" in messages[0]
+    assert "chunk-1-0 (no sign of life for" in messages[1]
+    xr.testing.assert_identical(ds, base_map)
+    assert not list(store.glob("*.claim*"))
+
+
+
+def test_claim_left_on_a_finished_chunk_is_cleared(tmp_path: Path, filled_store: Path,
+                                                   base_map: xr.Dataset,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A process killed between writing a chunk and releasing its claim leaves the claim on a
+    finished chunk: the next sweep uses the chunk and removes the dead claim, silently."""
+    store = _copy_store(filled_store, tmp_path / "store")
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    _claim(store, "chunk-1-0", dead.pid)
+    live = _claim(store, "chunk-0-0", os.getpid())  # a live holder about to release: kept
+    monkeypatch.setattr(vsweep, "run_point", lambda spec: pytest.fail("computed"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ds = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET)
+    xr.testing.assert_identical(ds, base_map)
+    assert list(store.glob("*.claim*")) == [live]
+
+# --- Ctrl-C ----------------------------------------------------------------------------------
+
+
+def test_ctrl_c_keeps_finished_chunks_and_rerun_computes_the_rest(
+        tmp_path: Path, resume_reference: xr.Dataset, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A real SIGINT to the main thread while chunk N+1 runs: KeyboardInterrupt propagates,
+    the N finished chunks are in the store (verified), no claim is left, and a rerun computes
+    exactly the other chunks."""
+    store = tmp_path / "store"
+    n = 3
+    order: list[str] = []
+    release = threading.Event()
+    real = vsweep.run_point
+
+    def interrupting(spec: PointSpec) -> list[dict[str, Any]]:
+        order.append(_resume_key(spec))
+        if len(order) == n + 1:
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+            release.wait(60)  # still running when the interrupt lands
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", interrupting)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store, workers=1,
+                  **QUIET)
+    finally:
+        release.set()
+    assert _chunks(store) == set(order[:n])
+    assert not list(store.glob("*.claim*")) and not list(store.glob("*.tmp"))
+
+    calls: list[str] = []
+
+    def counting(spec: PointSpec) -> list[dict[str, Any]]:
+        calls.append(_resume_key(spec))
+        return real(spec)
+
+    monkeypatch.setattr(vsweep, "run_point", counting)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the kept chunks verify: nothing reported
+        again = sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store,
+                      **QUIET)
+    assert sorted(calls) == sorted(RESUME_KEYS - set(order[:n]))
+    xr.testing.assert_identical(again, resume_reference)
+
+
+# --- dataset conventions -----------------------------------------------------------------------
+
+
+def test_every_variable_and_coordinate_has_units_and_long_name(base_map: xr.Dataset) -> None:
+    ds = sweep("7in-cde", FLOWS[:2], {"kS": (2e5, 3e5), "alpha": (0.6, 0.7)}, **QUIET)
+    for d in (base_map, ds):
+        for name, var in d.variables.items():
+            assert isinstance(var.attrs.get("units"), str), name
+            assert isinstance(var.attrs.get("long_name"), str) and var.attrs["long_name"], name
+            if name not in STRING_VARS:
+                assert var.attrs["units"], name
+    units = {name: base_map[name].attrs["units"] for name in base_map.variables}
+    assert units["flow_gpm"] == "gal/min" and units["f_exc_hz"] == "Hz"
+    assert all(units[f"z_{s}"] == "1" for s in vadsim.SURFACES)
+    assert units["j_pos"] == "N/kg" and units["j_pos_kN"] == "kN"
+    assert units["x1_peak_mean_g"] == units["x5_peak_std_g"] == "g"
+    assert units["x1_impact_hz"] == "Hz" and units["gap_ratio"] == "1"
+    assert ds["kS"].attrs["units"] == "N/m/kg"
+    assert ds["kS"].attrs["long_name"] == "recoil spring stiffness (#1)"
+    assert ds["alpha"].attrs["units"] == "(rad/s)/(gal/min)"
+    assert ds["f_exc_hz"].attrs["units"] == "Hz" and ds["f_exc_hz"].dims == ("alpha", "flow_gpm")
+    for name in FEATURES:
+        assert base_map[name].attrs["description"] == FEATURES[name]

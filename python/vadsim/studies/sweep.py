@@ -7,20 +7,39 @@ Dask cluster through the same ``concurrent.futures`` interface, writes every fin
 disk atomically so that a map killed at any moment resumes without losing or repeating a
 point, and returns an :class:`xarray.Dataset` with one variable per label.
 
-A grid point is described by plain data (preset name, flow, parameter values, overrides), never
-by live C++ objects, so it can travel to a Dask worker.
+A grid point is described by plain data (a :class:`~vadsim.model.settings.RunSettings`, the
+flows and the design values), never by live C++ objects, so it can travel to a Dask worker.
+
+:func:`sweep` goes through five named steps: check the inputs (:func:`_make_grid`), cut the
+grid into chunks (:meth:`_Grid.chunks`), open and verify the store (:class:`_Store`), run the
+chunks still to do (:func:`_run_chunks`) and assemble the dataset (:func:`_assemble`).
+
+The store trusts nothing it reads. ``grid.json`` describes the grid; every chunk file carries
+the grid's hash, the exact grid indices and flows it holds and a checksum of its rows, and a
+chunk that does not verify is recomputed with a :class:`StoreWarning` naming it and why. A
+store whose grid cannot be verified (``grid.json`` missing, unreadable or of another grid while
+chunks are present) is refused. Several processes on one store share the work: a process
+claims a chunk (``chunk-....claim``, created atomically) before computing it, skips chunks a
+live process has claimed and loads them once they are written; the claim of a process that
+ended (same host) or that gave no sign of life for :data:`CLAIM_STALE_S` is taken over.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
 import os
+import socket
 import tempfile
+import time
+import uuid
+import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from concurrent.futures import Executor, Future, ThreadPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -28,15 +47,18 @@ import numpy as np
 import xarray as xr
 
 from vadsim._version import __version__ as _version
-from vadsim.model.presets import get_preset, make_params
-from vadsim.model.simulate import SURFACES, G, SolverError, extra_force, simulate
+from vadsim.model.presets import get_preset, make_params, param_table
+from vadsim.model.settings import ExtraSpec, RunSettings
+from vadsim.model.simulate import SURFACES, G, SolverError
 from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
 
 __all__ = [
+    "CLAIM_STALE_S",
     "DERIVED_PARAMETERS",
     "FEATURES",
     "GAP_REALISATIONS",
     "PointSpec",
+    "StoreWarning",
     "design_overrides",
     "flow_sweep",
     "flows_from_hz",
@@ -74,6 +96,49 @@ FEATURES: dict[str, str] = {
     "error": "empty, or why the run failed",
 }
 
+_TEXT_FEATURES = ("periodicity", "error")
+_INT_FEATURES = ("scenario", "period", "steps")
+
+# CF-style (units, long_name) of every variable, so that xarray's plots label themselves.
+# "1" is a dimensionless number; labels (text) have no unit, hence "".
+_FEATURE_ATTRS: dict[str, tuple[str, str]] = {
+    "z_spring": ("1", "impacts per cycle, recoil spring (#1)"),
+    "z_impact": ("1", "impacts per cycle, impact face (#2)"),
+    "z_off_bottom": ("1", "impacts per cycle, off-bottom shoulder (#3)"),
+    "z_on_bottom": ("1", "impacts per cycle, on-bottom shoulder (#4)"),
+    "z_rock": ("1", "bit-rock contact onsets per cycle"),
+    "scenario": ("1", "impact scenario (Table 4.2)"),
+    "j_mean": ("N/kg", "mean impact-face force J*"),
+    "j_pos": ("N/kg", "impulse per second J*"),
+    "j_pos_kN": ("kN", "impulse per second J*"),
+    "x1_peak_mean_g": ("g", "bit-sub acceleration peaks, mean"),
+    "x1_peak_std_g": ("g", "bit-sub acceleration peaks, dispersion"),
+    "x5_peak_mean_g": ("g", "acceleration peaks above the motor, mean"),
+    "x5_peak_std_g": ("g", "acceleration peaks above the motor, dispersion"),
+    "x1_impact_hz": ("Hz", "bit-sub impact frequency"),
+    "period": ("1", "period of the steady response (excitation cycles)"),
+    "periodicity": ("", "periodicity of the steady response"),
+    "steps": ("1", "CVODE steps"),
+    "error": ("", "why the run failed"),
+}
+_FLOW_ATTRS = {"units": "gal/min", "long_name": "mud flow rate"}
+_F_EXC_ATTRS = {"units": "Hz", "long_name": "excitation frequency"}
+_DERIVED_ATTRS = {
+    "gap_ratio": {"units": "1", "long_name": "anvil-spring gap / preset gap"},
+    "gap": {"units": "l0", "long_name": "anvil-spring gap"},
+}
+
+STORE_FORMAT = 2
+"""Version of the store's files (1: vadsim 0.1, chunks without grid hash or checksum)."""
+
+CLAIM_STALE_S = 600.0
+"""A claim not refreshed for this long (s) is taken over, whoever holds it. A live process
+refreshes its claims every few seconds, so only a dead or frozen one reaches this age."""
+
+_HEARTBEAT_S = 5.0
+_POLL_S = 0.2
+_CHUNK_FLOWS = 8
+
 # Poincare section scales: 1 mm and 1 m/s, so that "same state" means within 1 um and 1 mm/s
 # (POINCARE_RTOL = 1e-3). A periodic 7in run at rtol 1e-6 repeats to 0.2 um and 0.2 mm/s
 # (the ~1 kHz sub-LWD mode keeps that much numerical noise), intermittent ones differ by mm.
@@ -81,10 +146,15 @@ _SECTION_SCALE = np.r_[np.full(7, 1e-3), np.full(7, 1.0)]
 _IMPACT_RATE_HZ = 4096.0
 
 
-def flows_from_hz(preset: str, hz: Iterable[float]) -> np.ndarray:
-    """Flow rates (gal/min) that give excitation frequencies ``hz`` (f = alpha Q / 2 pi)."""
-    alpha = get_preset(preset).params["alpha"]
-    return np.asarray([2 * math.pi * f / alpha for f in hz], dtype=float)
+class StoreWarning(UserWarning):
+    """Something in a sweep's store did not verify and was recomputed (or was taken over)."""
+
+
+def flows_from_hz(preset: str | RunSettings, hz: Iterable[float]) -> np.ndarray:
+    """Flow rates (gal/min) that give excitation frequencies ``hz`` (f = alpha Q / 2 pi), for a
+    preset (name) or run settings (whose ``alpha`` override, if any, counts)."""
+    settings = preset if isinstance(preset, RunSettings) else RunSettings(preset)
+    return settings.flows_for_hz(hz)
 
 
 def design_overrides(
@@ -123,21 +193,30 @@ def design_overrides(
 
 @dataclass(frozen=True)
 class PointSpec:
-    """Everything needed to run one row of a grid, as plain (picklable) data."""
+    """Everything needed to run one row of a grid, as plain (picklable) data.
 
-    preset: str
+    Parameters
+    ----------
+    settings
+        The run settings every point of the grid shares.
+    flows
+        The flow rates of this row (gal/min), in the order they are run.
+    values
+        ``((axis name, value), ...)``: the design values of this row (see
+        :func:`design_overrides`).
+    continuation
+        Each flow starts from the previous flow's final state.
+    gap_via
+        Which length realises a gap change.
+    detail
+        ``"full"`` or ``"map"`` (see :func:`sweep`).
+    """
+
+    settings: RunSettings
     flows: tuple[float, ...]
-    values: tuple[tuple[str, float], ...]
-    overrides: tuple[tuple[str, float], ...] = ()
-    law: str | None = None
-    extras: tuple[tuple[tuple[str, Any], ...], ...] = ()
-    wob_klbf: float | None = None
-    cycles: float = 400
-    analyse_cycles: float = 200
+    values: tuple[tuple[str, float], ...] = ()
     continuation: bool = False
     gap_via: str = "spring"
-    rtol: float = 1e-6
-    method: str = "adams"
     detail: str = "full"
 
 
@@ -200,39 +279,79 @@ def run_point(spec: PointSpec) -> list[dict[str, Any]]:
     flow sweep; otherwise every flow starts from the static state. A failed run gives a row
     with ``error`` set (and, in continuation mode, the next flow restarts from rest).
     """
-    preset = get_preset(spec.preset)
-    base = {**preset.params, **dict(spec.overrides)}
-    overrides = {**dict(spec.overrides), **design_overrides(base, dict(spec.values), spec.gap_via)}
-    extras = [extra_force(**dict(e)) for e in spec.extras]
+    s = spec.settings
+    base = {**s.preset.params, **s.overrides}
+    settings = s.with_changes(overrides=design_overrides(base, dict(spec.values), spec.gap_via))
     record, summary_rate = DETAILS[spec.detail]
     rows: list[dict[str, Any]] = []
     state = None
     for q in spec.flows:
         try:
-            r = simulate(
-                preset, q, cycles=spec.cycles, analyse_cycles=spec.analyse_cycles,
-                overrides=overrides, law=spec.law, extras=extras, wob_klbf=spec.wob_klbf,
-                rtol=spec.rtol, method=spec.method, record=record,
-                output_rate_hz=_IMPACT_RATE_HZ, summary_rate_hz=summary_rate,
-                initial_state=state,
-            )
+            r = settings.run(q, record=record, output_rate_hz=_IMPACT_RATE_HZ,
+                             summary_rate_hz=summary_rate, initial_state=state)
         except (SolverError, ValueError) as exc:
             rows.append(_failed_row(str(exc)))
             state = None
             continue
-        rows.append(_features(r, spec.analyse_cycles))
+        rows.append(_features(r, settings.analyse_cycles))
         state = r.y_end if spec.continuation else None
     return rows
 
 
-@dataclass
-class _Grid:
-    preset: str
-    flows: np.ndarray
-    axes: dict[str, np.ndarray]
-    base: dict[str, Any] = field(default_factory=dict)
+# --- the grid and its chunks ---------------------------------------------------------------
 
-    def rows(self) -> list[tuple[tuple[int, ...], tuple[tuple[str, float], ...]]]:
+
+@dataclass(frozen=True, eq=False)
+class _Chunk:
+    """A piece of one row of the grid: the unit that is computed, stored and claimed."""
+
+    index: tuple[int, ...]
+    start: int
+    spec: PointSpec
+
+    @property
+    def key(self) -> str:
+        return "chunk-" + "-".join(str(i) for i in (*self.index, self.start))
+
+    @property
+    def flow_index(self) -> list[int]:
+        return list(range(self.start, self.start + len(self.spec.flows)))
+
+    def header(self, grid_hash: str) -> dict[str, Any]:
+        """What a chunk file must say about itself (JSON form)."""
+        return {"format": STORE_FORMAT, "grid": grid_hash, "key": self.key,
+                "index": list(self.index), "values": [[n, v] for n, v in self.spec.values],
+                "flow_index": self.flow_index, "flows": list(self.spec.flows)}
+
+
+@dataclass(frozen=True, eq=False)
+class _Grid:
+    """The whole computation of a sweep, as data: settings, flows, design axes and mode."""
+
+    settings: RunSettings
+    flows: np.ndarray
+    axes: dict[str, np.ndarray] = field(default_factory=dict)
+    mode: str = "independent"
+    gap_via: str = "spring"
+    detail: str = "full"
+
+    @property
+    def continuation(self) -> bool:
+        return self.mode == "continuation"
+
+    @property
+    def piece(self) -> int:
+        """Flows per chunk: a whole row in continuation mode (it is sequential); otherwise a
+        few flows, so that every core stays busy to the end."""
+        return len(self.flows) if self.continuation else max(1, min(len(self.flows),
+                                                                    _CHUNK_FLOWS))
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (*(len(v) for v in self.axes.values()), len(self.flows))
+
+    def cells(self) -> list[tuple[tuple[int, ...], tuple[tuple[str, float], ...]]]:
+        """Every row of the grid: its axis indices and design values."""
         names = list(self.axes)
         shapes = [len(v) for v in self.axes.values()]
         out = []
@@ -241,23 +360,352 @@ class _Grid:
             out.append((tuple(int(i) for i in idx), values))
         return out
 
+    def chunks(self) -> list[_Chunk]:
+        """The grid cut into chunks, in the order they are computed."""
+        out = []
+        for idx, values in self.cells():
+            for start in range(0, len(self.flows), self.piece):
+                sub = tuple(float(q) for q in self.flows[start:start + self.piece])
+                out.append(_Chunk(idx, start, PointSpec(self.settings, sub, values,
+                                                        self.continuation, self.gap_via,
+                                                        self.detail)))
+        return out
 
-def _atomic_write_text(path: Path, text: str) -> None:
+    @cached_property
+    def document(self) -> dict[str, Any]:
+        """The grid as JSON data (``grid.json``); axes as ordered pairs (order is meaning)."""
+        return {"format": STORE_FORMAT, "settings": self.settings.as_dict(),
+                "preset_params": {k: float(v) for k, v in
+                                  sorted(self.settings.preset.params.items())},
+                "flows": self.flows.tolist(),
+                "axes": [[k, v.tolist()] for k, v in self.axes.items()],
+                "mode": self.mode, "gap_via": self.gap_via, "detail": self.detail,
+                "chunk_flows": self.piece}
+
+    @cached_property
+    def text(self) -> str:
+        return json.dumps(self.document, sort_keys=True)
+
+    @cached_property
+    def hash(self) -> str:
+        return hashlib.sha256(self.text.encode()).hexdigest()
+
+
+# --- the store: files that verify themselves, claims shared between processes ---------------
+
+
+class _BadChunk(Exception):
+    """A chunk file that does not verify (the message says why); it is recomputed."""
+
+
+def _rows_text(rows: Any) -> str:
+    return json.dumps(rows, sort_keys=True, default=float)
+
+
+def _checksum(rows: Any) -> str:
+    return "sha256:" + hashlib.sha256(_rows_text(rows).encode()).hexdigest()
+
+
+def _row_problem(row: Any) -> str | None:
+    """Why ``row`` is not a row of features (None: it is one)."""
+    if not isinstance(row, dict):
+        return f"is {type(row).__name__}, not a mapping"
+    missing = [k for k in FEATURES if k not in row]
+    if missing:
+        return f"lacks {', '.join(missing)}"
+    unknown = sorted(set(row) - set(FEATURES))
+    if unknown:
+        return f"has unknown keys {', '.join(unknown)}"
+    for name, value in row.items():
+        text = name in _TEXT_FEATURES
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if (text and not isinstance(value, str)) or (not text and not number):
+            return f"has {name} = {value!r}"
+    return None
+
+
+def _verify_chunk(text: str, chunk: _Chunk, grid_hash: str, where: str) -> list[dict[str, Any]]:
+    """The rows of a chunk file, or :class:`_BadChunk`; ValueError if it is another grid's."""
+    try:
+        doc = json.loads(text)
+    except ValueError as exc:
+        raise _BadChunk(f"is not readable JSON ({exc})") from None
+    if not isinstance(doc, dict) or "grid" not in doc or "checksum" not in doc:
+        raise _BadChunk("carries no grid hash or checksum (an older vadsim's chunk, or none)")
+    if doc["grid"] != grid_hash:
+        raise ValueError(
+            f"{where}: {chunk.key}.json belongs to grid {str(doc['grid'])[:16]}, but grid.json "
+            f"describes grid {grid_hash[:16]}: grid.json was replaced after chunks were "
+            "written, so the store cannot be trusted; use another folder or delete it")
+    rows = doc.get("rows")
+    if not isinstance(rows, list) or doc["checksum"] != _checksum(rows):
+        raise _BadChunk("does not match its checksum (changed or damaged after it was written)")
+    for name, expected in chunk.header(grid_hash).items():
+        if doc.get(name) != expected:
+            raise _BadChunk(f"holds {name} {doc.get(name)!r}, expected {expected!r}")
+    if len(rows) != len(chunk.spec.flows):
+        raise _BadChunk(f"has {len(rows)} rows for {len(chunk.spec.flows)} flows")
+    for j, row in enumerate(rows):
+        problem = _row_problem(row)
+        if problem:
+            raise _BadChunk(f"row {j} {problem}")
+    return rows
+
+
+def _atomic_write_text(path: Path, text: str, *, replace: bool = True) -> None:
+    """Write ``text`` to ``path`` all at once: to a temporary file, then renamed into place (or,
+    with ``replace=False``, linked: FileExistsError if ``path`` exists)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
+        if replace:
+            os.replace(tmp, path)
+        else:
+            os.link(tmp, path)
+    finally:
         Path(tmp).unlink(missing_ok=True)
-        raise
+
+
+def _read_json(path: Path) -> Any:
+    """The JSON in ``path``; None if missing, unreadable or not JSON."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+
+
+def _pid_alive(pid: Any) -> bool:
+    if not isinstance(pid, int) or isinstance(pid, bool) or pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: alive, someone else's
+        return True
+    return True
+
+
+def _differences(old: Mapping[str, Any], new: Mapping[str, Any], prefix: str = "") -> list[str]:
+    """The fields where two grid documents differ, e.g. ``settings.cycles 20.0 -> 30.0``."""
+    out = []
+    for k in sorted(set(old) | set(new)):
+        a, b = old.get(k), new.get(k)
+        if isinstance(a, Mapping) and isinstance(b, Mapping):
+            out += _differences(a, b, f"{prefix}{k}.")
+        elif a != b:
+            short = not isinstance(a, list) and not isinstance(b, list)
+            out.append(f"{prefix}{k} {a!r} -> {b!r}" if short else f"{prefix}{k} differ")
+    return out
+
+
+class _Store:
+    """A folder of finished chunks of one grid (``grid.json``) that verifies what it reads and
+    shares the work with other processes through claim files."""
+
+    def __init__(self, path: Path, grid: _Grid) -> None:
+        self.path = path
+        self.grid = grid
+        self.where = f"store {path}"
+        self.host = socket.gethostname()
+        self._held: dict[str, str] = {}  # chunk key -> token of this process's claim
+        self._bad: dict[str, tuple[int, int]] = {}  # chunk key -> (mtime, size) found bad
+        self._beat = time.monotonic()
+
+    @classmethod
+    def open(cls, path: str | os.PathLike[str], grid: _Grid) -> _Store:
+        """The store at ``path`` for ``grid``; ValueError if it holds another or an unknown
+        grid."""
+        store = cls(Path(path), grid)
+        store.path.mkdir(parents=True, exist_ok=True)
+        store._check_grid_file()
+        return store
+
+    def _chunk_files(self) -> list[Path]:
+        return sorted(self.path.glob("chunk-*.json"))
+
+    def _check_grid_file(self) -> None:
+        spec = self.path / "grid.json"
+        if not spec.exists():
+            if self._chunk_files() and not spec.exists():  # (re-checked: a racing creator)
+                raise ValueError(
+                    f"{self.where} has chunk files but no grid.json: nothing says which grid "
+                    "they belong to, so they cannot be trusted; use another folder or delete it")
+            with contextlib.suppress(FileExistsError):  # another process was first: compare
+                _atomic_write_text(spec, self.grid.text, replace=False)
+        try:
+            current = spec.read_text()
+        except (OSError, UnicodeDecodeError):
+            current = None
+        if current != self.grid.text:
+            raise ValueError(self._grid_mismatch(current))
+
+    def _grid_mismatch(self, current: str | None) -> str:
+        fix = "use another folder or delete it"
+        try:
+            old = json.loads(current or "")
+        except ValueError:
+            old = None
+        if not isinstance(old, dict):
+            return f"{self.where}: grid.json is unreadable, so its chunks cannot be verified; {fix}"
+        if old.get("format") != STORE_FORMAT:
+            fmt = old.get("format", old.get("version"))
+            return (f"{self.where} holds a different grid, in store format {fmt} (an older "
+                    f"vadsim's, whose chunks carry no checksums); {fix}")
+        diff = _differences(old, self.grid.document)
+        what = "; ".join(diff[:6]) + (" ..." if len(diff) > 6 else "") or "same fields"
+        return f"{self.where} holds a different grid ({what}); {fix}"
+
+    def load(self, chunks: Sequence[_Chunk]) -> dict[str, list[dict[str, Any]]]:
+        """The verified rows of every chunk the store holds (bad ones reported, left out)."""
+        known = {c.key for c in chunks}
+        strays = [f.name for f in self._chunk_files() if f.stem not in known]
+        if strays:
+            warnings.warn(f"{self.where}: ignored {len(strays)} file(s) that are no chunk of "
+                          f"this grid: {', '.join(strays[:3])}", StoreWarning, stacklevel=3)
+        done = {}
+        for chunk in chunks:
+            rows = self.read(chunk)
+            if rows is not None:
+                done[chunk.key] = rows
+                self.drop_stale_claim(chunk)
+        return done
+
+    def read(self, chunk: _Chunk) -> list[dict[str, Any]] | None:
+        """The chunk's rows if its file exists and verifies, else None (a bad file is reported
+        once, with a :class:`StoreWarning`)."""
+        path = self.path / f"{chunk.key}.json"
+        try:
+            st = path.stat()
+        except FileNotFoundError:
+            return None
+        stamp = (st.st_mtime_ns, st.st_size)
+        if self._bad.get(chunk.key) == stamp:
+            return None
+        try:
+            text = path.read_text()
+        except FileNotFoundError:
+            return None
+        except (OSError, UnicodeDecodeError):
+            text = ""
+        try:
+            return _verify_chunk(text, chunk, self.grid.hash, self.where)
+        except _BadChunk as exc:
+            self._bad[chunk.key] = stamp
+            warnings.warn(f"{self.where}: {chunk.key}.json {exc}; recomputing it", StoreWarning,
+                          stacklevel=4)
+            return None
+
+    def write(self, chunk: _Chunk, rows: list[dict[str, Any]]) -> None:
+        doc = {**chunk.header(self.grid.hash), "rows": rows, "checksum": _checksum(rows)}
+        _atomic_write_text(self.path / f"{chunk.key}.json", json.dumps(doc, default=float))
+        self._bad.pop(chunk.key, None)
+
+    # claims
+
+    def _claim_path(self, key: str) -> Path:
+        return self.path / f"{key}.claim"
+
+    def claim(self, chunk: _Chunk) -> bool:
+        """Claim ``chunk`` for this process (True), or find it held by a live one (False)."""
+        path = self._claim_path(chunk.key)
+        for _ in range(2):
+            token = uuid.uuid4().hex
+            try:
+                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                if not self._take_over_if_stale(path, chunk):
+                    return False
+                continue
+            with os.fdopen(fd, "w") as fh:
+                json.dump({"pid": os.getpid(), "host": self.host, "time": time.time(),
+                           "token": token}, fh)
+            self._held[chunk.key] = token
+            return True
+        return False
+
+    def _stale(self, path: Path) -> tuple[dict[str, Any], str] | None:
+        """The holder of the claim at ``path`` and why it is stale; None if live or gone."""
+        holder = _read_json(path)
+        try:
+            age = time.time() - path.stat().st_mtime
+        except FileNotFoundError:
+            return None
+        holder = holder if isinstance(holder, dict) else {}
+        if age > CLAIM_STALE_S:
+            return holder, f"no sign of life for {age:.0f} s"
+        if holder.get("host") == self.host and not _pid_alive(holder.get("pid")):
+            return holder, f"process {holder.get('pid')} on this host has ended"
+        return None
+
+    @staticmethod
+    def _remove(path: Path, holder: dict[str, Any]) -> bool:
+        """Remove the claim at ``path`` if it still is ``holder``'s (a fresh claim that replaced
+        it meanwhile is put back); True if removed."""
+        aside = path.with_name(f"{path.name}.stale-{uuid.uuid4().hex}")
+        try:
+            os.rename(path, aside)
+        except FileNotFoundError:
+            return False
+        moved = _read_json(aside)
+        if (moved if isinstance(moved, dict) else {}) != holder:
+            with contextlib.suppress(OSError):
+                os.link(aside, path)
+            aside.unlink(missing_ok=True)
+            return False
+        aside.unlink(missing_ok=True)
+        return True
+
+    def _take_over_if_stale(self, path: Path, chunk: _Chunk) -> bool:
+        """Remove the claim at ``path`` if its holder is gone; True if it is gone now."""
+        stale = self._stale(path)
+        if stale is None or not self._remove(path, stale[0]):
+            return not path.exists()
+        warnings.warn(f"{self.where}: took over the claim of {chunk.key} ({stale[1]})",
+                      StoreWarning, stacklevel=5)
+        return True
+
+    def drop_stale_claim(self, chunk: _Chunk) -> None:
+        """Remove a dead holder's claim of a chunk that is finished (it was killed between
+        writing the chunk and releasing the claim): nothing to take over, nothing to report."""
+        path = self._claim_path(chunk.key)
+        stale = self._stale(path) if path.exists() else None
+        if stale is not None:
+            self._remove(path, stale[0])
+
+    def release(self, key: str) -> None:
+        """Remove this process's claim of chunk ``key`` (if it still is this process's)."""
+        token = self._held.pop(key, None)
+        path = self._claim_path(key)
+        holder = _read_json(path)
+        if token is not None and isinstance(holder, dict) and holder.get("token") == token:
+            path.unlink(missing_ok=True)
+
+    def release_all(self) -> None:
+        for key in list(self._held):
+            self.release(key)
+
+    def heartbeat(self) -> None:
+        """Refresh this process's claims (so that they never look stale while it lives)."""
+        now = time.monotonic()
+        if now - self._beat < _HEARTBEAT_S:
+            return
+        self._beat = now
+        for key in self._held:
+            with contextlib.suppress(OSError):
+                os.utime(self._claim_path(key))
+
+
+# --- running the chunks ----------------------------------------------------------------------
 
 
 def _make_executor(
     workers: int | None, scheduler: str | None
-) -> tuple[Executor, Callable[[], None]]:
+) -> tuple[Executor, Callable[[], None], int]:
+    """An executor, its closer and how many chunks to keep in flight on it."""
     if scheduler:
         from dask.distributed import Client
 
@@ -268,77 +716,143 @@ def _make_executor(
             ex.shutdown(wait=False)
             client.close()
 
-        return ex, close
-    ex = ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1)
+        return ex, close, max(4, 2 * sum(client.nthreads().values()))
+    n = workers or os.cpu_count() or 1
+    ex = ThreadPoolExecutor(max_workers=n)
 
     def close_threads() -> None:
         ex.shutdown(wait=False, cancel_futures=True)
 
-    return ex, close_threads
+    return ex, close_threads, 2 * n
 
 
-def sweep(
-    preset: str = "7in-cde",
-    flows: Sequence[float] | np.ndarray = (200.0,),
-    axes: Mapping[str, Sequence[float] | np.ndarray] | None = None,
-    *,
-    overrides: Mapping[str, float] | None = None,
-    law: str | None = None,
-    extras: Sequence[Mapping[str, Any]] = (),
-    wob_klbf: float | None = None,
-    cycles: float = 400,
-    analyse_cycles: float = 200,
-    mode: str = "independent",
-    gap_via: str = "spring",
-    rtol: float = 1e-6,
-    method: str = "adams",
-    detail: str = "full",
-    workers: int | None = None,
-    scheduler: str | None = None,
-    store: str | os.PathLike[str] | None = None,
-    progress: bool = True,
-) -> xr.Dataset:
-    """Run the model over flow rates and (optionally) one or more parameter axes.
+@dataclass(eq=False)
+class _Queue:
+    """The chunks of one :func:`sweep` call still to be done, and where each stands."""
 
-    Parameters
-    ----------
-    preset
-        Tool preset name.
-    flows
-        Flow rates (gal/min), in the order a continuation sweep visits them.
-    axes
-        ``{name: values}`` for each design axis: a Table 2.1 parameter or ``gap_ratio`` /
-        ``gap`` (see :func:`design_overrides`). None: a plain flow sweep.
-    overrides, law, extras, wob_klbf
-        Applied to every point (``extras`` as dicts for :func:`vadsim.extra_force`).
-    cycles, analyse_cycles
-        Run length and steady window, in excitation cycles.
-    mode
-        ``"independent"``: every point starts from the static state. ``"continuation"``:
-        along each flow row, a point starts from the previous flow's final state.
-    gap_via
-        Which length realises a gap change.
-    detail
-        ``"full"``: every label, peaks and J* on a 20 kHz grid, impact frequency from the
-        recorded x1. ``"map"``: regimes, J* and periodicity only (J* and peaks on a 5 kHz
-        grid, no impact frequency), about 25 % faster: for large maps.
-    workers
-        Local threads (default: all cores). Ignored with ``scheduler``.
-    scheduler
-        Address of a Dask scheduler (``"tcp://host:8786"``): the same grid runs there.
-    store
-        Folder for finished chunks. A sweep interrupted at any moment (Ctrl-C, kill -9) and
-        called again with the same arguments and store resumes where it stopped. A store that
-        belongs to a different grid is refused.
-    progress
-        Show a progress bar (tqdm) on stderr.
+    pending: list[_Chunk]
+    done: dict[str, list[dict[str, Any]]]
+    store: _Store | None
+    bar: Any
+    running: dict[Future, _Chunk] = field(default_factory=dict)
+    elsewhere: set[str] = field(default_factory=set)  # claimed by another live process
 
-    Returns
-    -------
-    xarray.Dataset
-        Dimensions ``(*axes, "flow_gpm")``; one variable per entry of :data:`FEATURES`;
-        attributes record the preset, mode, run length, overrides and the vadsim version.
+    def finish(self, chunk: _Chunk, rows: list[dict[str, Any]]) -> None:
+        self.done[chunk.key] = rows
+        if self.bar is not None:
+            self.bar.update(len(rows))
+
+    def collect_elsewhere(self) -> None:
+        """Load the chunks other processes have finished since they were found claimed."""
+        if self.store is None:
+            return
+        for chunk in [c for c in self.pending if c.key in self.elsewhere]:
+            rows = self.store.read(chunk)
+            if rows is not None:
+                self.store.drop_stale_claim(chunk)
+                self.pending.remove(chunk)
+                self.finish(chunk, rows)
+
+    def start(self, ex: Executor, slots: int) -> None:
+        """Claim and submit pending chunks until ``slots`` are in flight."""
+        for chunk in list(self.pending):
+            if len(self.running) >= slots:
+                return
+            if self.store is not None:
+                if not self.store.claim(chunk):
+                    self.elsewhere.add(chunk.key)
+                    continue
+                rows = self.store.read(chunk)  # finished by another process since we looked?
+                if rows is not None:
+                    self.store.release(chunk.key)
+                    self.pending.remove(chunk)
+                    self.finish(chunk, rows)
+                    continue
+            self.pending.remove(chunk)
+            self.elsewhere.discard(chunk.key)
+            self.running[ex.submit(run_point, chunk.spec)] = chunk
+
+    def harvest(self) -> None:
+        """Wait briefly for chunks in flight; store and record those that finished."""
+        finished, _ = wait(self.running, timeout=_POLL_S, return_when=FIRST_COMPLETED)
+        self.save(finished)
+
+    def save(self, finished: Iterable[Future]) -> None:
+        """Store and record the chunks of ``finished`` futures; then raise the first failure."""
+        failed = [f for f in finished if f.cancelled() or f.exception() is not None]
+        for fut in finished:
+            if fut in failed:
+                continue
+            chunk = self.running[fut]
+            rows = fut.result()
+            if self.store is not None:
+                self.store.write(chunk, rows)
+                self.store.release(chunk.key)
+            self.finish(chunk, rows)
+            del self.running[fut]  # only now: an interrupt before this saves it again
+        if failed:
+            failed[0].result()
+
+    def save_finished(self) -> None:
+        """On the way out (Ctrl-C, a failure): keep every chunk that finished meanwhile."""
+        self.save([f for f in list(self.running) if f.done() and not f.cancelled()
+                   and f.exception() is None])
+
+
+def _run_chunks(todo: Sequence[_Chunk], done: dict[str, list[dict[str, Any]]],
+                store: _Store | None, workers: int | None, scheduler: str | None,
+                bar: Any) -> None:
+    """Compute ``todo`` (adding to ``done`` and the store); with a store, share the work with
+    any other process on it: skip the chunks it claimed, then wait for and load them.
+
+    Interrupted (Ctrl-C) or failed, every chunk finished so far is already in the store, this
+    process's claims are released and the exception propagates.
     """
+    queue = _Queue(list(todo), done, store, bar)
+    ex, close, slots = _make_executor(workers, scheduler)
+    try:
+        while queue.pending or queue.running:
+            if store is not None:
+                store.heartbeat()
+            queue.collect_elsewhere()
+            queue.start(ex, slots)
+            if queue.running:
+                queue.harvest()
+            elif queue.pending:  # everything left is being computed elsewhere
+                time.sleep(_POLL_S)
+    finally:
+        try:
+            queue.save_finished()
+        finally:
+            close()
+            if store is not None:
+                store.release_all()
+
+
+# --- the inputs --------------------------------------------------------------------------------
+
+
+def _settings_from(preset: str | None, settings: RunSettings | None,
+                   loose: dict[str, Any]) -> RunSettings:
+    """The run settings of a sweep: ``settings``, or built from the loose keyword arguments."""
+    given = {k: v for k, v in loose.items()
+             if v is not None and not (k == "extras" and not isinstance(v, Mapping) and not v)}
+    if "extras" in given:
+        if isinstance(given["extras"], (Mapping, ExtraSpec, str)):
+            raise ValueError(f"extras = {given['extras']!r} must be a sequence of extra forces")
+        given["extras"] = tuple(given["extras"])
+    if settings is None:
+        return RunSettings("7in-cde" if preset is None else preset, **given)
+    if not isinstance(settings, RunSettings):
+        raise ValueError(f"settings = {settings!r} must be a vadsim.RunSettings")
+    if given:
+        raise ValueError(f"give either settings or {', '.join(given)}, not both")
+    if preset is not None and get_preset(preset).name != settings.preset.name:
+        raise ValueError(f"preset {preset!r} differs from settings' {settings.preset.name!r}")
+    return settings
+
+
+def _check_options(mode: str, gap_via: str, detail: str, workers: int | None) -> None:
     if mode not in ("independent", "continuation"):
         raise ValueError(f"mode = {mode!r} must be 'independent' or 'continuation'")
     if gap_via not in GAP_REALISATIONS:
@@ -347,6 +861,11 @@ def sweep(
         raise ValueError(f"detail = {detail!r} must be one of {', '.join(DETAILS)}")
     if workers is not None and (isinstance(workers, bool) or int(workers) < 1):
         raise ValueError(f"workers = {workers!r} must be a positive integer")
+
+
+def _flows_and_axes(flows: Sequence[float] | np.ndarray,
+                    axes: Mapping[str, Sequence[float] | np.ndarray] | None
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     flows_arr = np.asarray(flows, dtype=float).ravel()
     if flows_arr.size == 0:
         raise ValueError("flows is empty")
@@ -359,138 +878,222 @@ def sweep(
             raise ValueError(f"axis {name!r} is empty")
         if name == "flow_gpm":
             raise ValueError("flow is the sweep's own axis: pass it as flows")
-    p = get_preset(preset)
-    base = {**p.params, **(overrides or {})}
-    # Validate everything now, not in a worker an hour later (and before a store exists):
-    # the run options and parameters through a one-cycle probe of the first point, then the
-    # ends of every axis. A solver failure of the probe is left to the real run to report.
-    for name, value in (("cycles", cycles), ("analyse_cycles", analyse_cycles)):
+    return flows_arr, axes_arr
+
+
+def _probe(settings: RunSettings, flows: np.ndarray, axes: dict[str, np.ndarray],
+           gap_via: str) -> None:
+    """Validate everything now, not in a worker an hour later (and before a store exists): the
+    run options and parameters through a one-cycle run of the first point, then the ends of
+    every axis. A solver failure of the probe is left to the real run to report."""
+    for name in ("cycles", "analyse_cycles"):
+        value = getattr(settings, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ValueError(f"{name} = {value!r} must be a finite number > 0")
-    if analyse_cycles > cycles:
-        raise ValueError(f"analyse_cycles = {analyse_cycles} must be <= cycles = {cycles}")
-    try:
-        simulate(p, float(flows_arr[0]), cycles=1, analyse_cycles=1, overrides=overrides,
-                 law=law, wob_klbf=wob_klbf, rtol=rtol, method=method, record="none",
-                 extras=[extra_force(**dict(e)) for e in extras])
-    except SolverError:
-        pass
-    for name, values in axes_arr.items():
+    if settings.analyse_cycles > settings.cycles:
+        raise ValueError(f"analyse_cycles = {settings.analyse_cycles} must be <= cycles = "
+                         f"{settings.cycles}")
+    with contextlib.suppress(SolverError):
+        settings.with_changes(cycles=1, analyse_cycles=1).run(float(flows[0]), record="none")
+    base = {**settings.preset.params, **settings.overrides}
+    for name, values in axes.items():
         for v in (values.min(), values.max()):
-            make_params(p, {**(overrides or {}), **design_overrides(base, {name: v}, gap_via)},
-                        law)
-    grid = _Grid(p.name, flows_arr, axes_arr)
-    continuation = mode == "continuation"
-    common = dict(
-        preset=p.name, overrides=tuple(sorted((overrides or {}).items())), law=law,
-        extras=tuple(tuple(sorted(e.items())) for e in extras), wob_klbf=wob_klbf,
-        cycles=float(cycles), analyse_cycles=float(analyse_cycles), continuation=continuation,
-        gap_via=gap_via, rtol=float(rtol), method=method, detail=detail,
-    )
-    # Chunks: a whole flow row in continuation mode (it is sequential); otherwise rows are cut
-    # into pieces of a few flows so that both cores stay busy to the end.
-    piece = len(flows_arr) if continuation else max(1, min(len(flows_arr), 8))
-    chunks: list[tuple[tuple[int, ...], int, PointSpec]] = []
-    for idx, values in grid.rows():
-        for start in range(0, len(flows_arr), piece):
-            sub = tuple(float(q) for q in flows_arr[start:start + piece])
-            chunks.append((idx, start, PointSpec(flows=sub, values=values, **common)))
+            make_params(settings.preset, {**settings.overrides,
+                                          **design_overrides(base, {name: v}, gap_via)},
+                        settings.law)
 
-    spec_doc = {
-        "version": 1,
-        "flows": flows_arr.tolist(),
-        "axes": {k: v.tolist() for k, v in axes_arr.items()},
-        "common": {k: (list(v) if isinstance(v, tuple) else v) for k, v in common.items()},
-    }
-    spec_text = json.dumps(spec_doc, sort_keys=True, default=str)
-    done: dict[str, list[dict[str, Any]]] = {}
-    store_path = Path(store) if store is not None else None
-    if store_path is not None:
-        store_path.mkdir(parents=True, exist_ok=True)
-        spec_file = store_path / "grid.json"
-        if spec_file.exists():
-            if spec_file.read_text() != spec_text:
-                raise ValueError(
-                    f"store {store_path} holds a different grid; use another folder or delete it"
-                )
-        else:
-            _atomic_write_text(spec_file, spec_text)
-        for f in store_path.glob("chunk-*.json"):
-            try:
-                done[f.stem] = json.loads(f.read_text())
-            except (OSError, json.JSONDecodeError):
-                f.unlink(missing_ok=True)  # cannot happen with atomic writes; recompute anyway
 
-    def key(idx: tuple[int, ...], start: int) -> str:
-        return "chunk-" + "-".join(str(i) for i in (*idx, start))
+def _make_grid(settings: RunSettings, flows: Sequence[float] | np.ndarray,
+               axes: Mapping[str, Sequence[float] | np.ndarray] | None, *, mode: str,
+               gap_via: str, detail: str, workers: int | None, portable: bool) -> _Grid:
+    """Step 1: check every input and describe the computation (ValueError naming a bad one)."""
+    _check_options(mode, gap_via, detail, workers)
+    flows_arr, axes_arr = _flows_and_axes(flows, axes)
+    if portable and not all(isinstance(e, ExtraSpec) for e in settings.extras):
+        raise ValueError("extra forces given as core objects cannot be stored or sent to Dask: "
+                         "pass them as ExtraSpec or mappings with 'kind'")
+    _probe(settings, flows_arr, axes_arr, gap_via)
+    return _Grid(settings, flows_arr, axes_arr, mode, gap_via, detail)
 
-    todo = [(idx, start, spec) for idx, start, spec in chunks if key(idx, start) not in done]
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
 
-        total = len(flows_arr) * max(1, len(grid.rows()))
-        bar = tqdm(total=total, initial=total - sum(len(s.flows) for *_, s in todo),
-                   unit="run", desc=f"{p.name} sweep", smoothing=0.05)
-    if todo:
-        ex, close = _make_executor(workers, scheduler)
-        futures: dict[Future, tuple[tuple[int, ...], int]] = {}
-        try:
-            for idx, start, spec in todo:
-                futures[ex.submit(run_point, spec)] = (idx, start)
-            for fut in as_completed(futures):
-                idx, start = futures[fut]
-                rows = fut.result()
-                done[key(idx, start)] = rows
-                if store_path is not None:
-                    _atomic_write_text(store_path / f"{key(idx, start)}.json",
-                                       json.dumps(rows, default=float))
-                if bar is not None:
-                    bar.update(len(rows))
-        finally:
-            close()
-    if bar is not None:
-        bar.close()
+# --- the dataset -------------------------------------------------------------------------------
 
-    shape = tuple(len(v) for v in axes_arr.values()) + (len(flows_arr),)
-    data: dict[str, np.ndarray] = {}
-    for name in FEATURES:
-        kind = object if name in ("periodicity", "error") else float
-        data[name] = np.empty(shape, dtype=kind)
-    for idx, start, _spec in chunks:
-        for j, row in enumerate(done[key(idx, start)]):
+
+def _fill(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[str, Any]]]
+          ) -> dict[str, np.ndarray]:
+    """One array per feature, every cell from its chunk (RuntimeError if one is missing)."""
+    data = {name: (np.full(grid.shape, "", dtype=object) if name in _TEXT_FEATURES
+                   else np.full(grid.shape, np.nan)) for name in FEATURES}
+    filled = np.zeros(grid.shape, dtype=bool)
+    for chunk in chunks:
+        rows = done[chunk.key]
+        if len(rows) != len(chunk.spec.flows):
+            raise RuntimeError(f"{chunk.key}: {len(rows)} rows for {len(chunk.spec.flows)} flows")
+        for j, row in enumerate(rows):
+            cell = (*chunk.index, chunk.start + j)
             for name in FEATURES:
-                data[name][(*idx, start + j)] = row[name]
-    dims = (*axes_arr, "flow_gpm")
-    alpha = float((overrides or {}).get("alpha", p.params["alpha"]))
-    coords: dict[str, Any] = {"flow_gpm": flows_arr}
-    coords.update(axes_arr)
-    if "alpha" in axes_arr:  # the excitation frequency then varies along that axis too
-        coords["f_exc_hz"] = (("alpha", "flow_gpm"),
-                              np.outer(axes_arr["alpha"], flows_arr) / (2 * math.pi))
+                data[name][cell] = row[name]
+            filled[cell] = True
+    if not filled.all():
+        raise RuntimeError(f"{int((~filled).sum())} cells of the grid were not computed")
+    return data
+
+
+def _axis_attrs(name: str) -> dict[str, str]:
+    if name in _DERIVED_ATTRS:
+        return dict(_DERIVED_ATTRS[name])
+    table = {row[0]: row for row in param_table()}
+    _, unit, meaning, _ = table.get(name, (name, "", name, ""))
+    return {"units": "1" if unit == "-" else unit, "long_name": meaning}
+
+
+def _coords(grid: _Grid) -> dict[str, Any]:
+    """Flow, the design axes and the excitation frequency (which varies along ``alpha``)."""
+    s = grid.settings
+    coords: dict[str, Any] = {"flow_gpm": ("flow_gpm", grid.flows, dict(_FLOW_ATTRS))}
+    for name, values in grid.axes.items():
+        coords[name] = (name, values, _axis_attrs(name))
+    if "alpha" in grid.axes:
+        f = np.stack([s.with_changes(overrides={"alpha": float(a)}).f_exc_hz(grid.flows)
+                      for a in grid.axes["alpha"]])
+        coords["f_exc_hz"] = (("alpha", "flow_gpm"), f, dict(_F_EXC_ATTRS))
     else:
-        coords["f_exc_hz"] = ("flow_gpm", alpha * flows_arr / (2 * math.pi))
-    ds = xr.Dataset(coords=coords)
+        coords["f_exc_hz"] = ("flow_gpm", s.f_exc_hz(grid.flows), dict(_F_EXC_ATTRS))
+    return coords
+
+
+def _assemble(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[str, Any]]]
+              ) -> xr.Dataset:
+    """Step 5: the dataset, one variable per feature, CF ``units``/``long_name`` everywhere."""
+    data = _fill(grid, chunks, done)
+    dims = (*grid.axes, "flow_gpm")
+    ds = xr.Dataset(coords=_coords(grid))
     for name, desc in FEATURES.items():
         arr = data[name]
-        if name in ("scenario", "period", "steps"):
+        if name in _INT_FEATURES:
             arr = arr.astype(np.int64)
-        elif name in ("periodicity", "error"):
+        elif name in _TEXT_FEATURES:
             arr = arr.astype(str)
-        ds[name] = (dims, arr, {"description": desc})
+        units, long_name = _FEATURE_ATTRS[name]
+        ds[name] = (dims, arr, {"description": desc, "units": units, "long_name": long_name})
+    s = grid.settings.as_dict()
     ds.attrs.update(
-        preset=p.name, mode=mode, cycles=float(cycles), analyse_cycles=float(analyse_cycles),
-        overrides=json.dumps(dict(overrides or {})), law=law or p.law, gap_via=gap_via,
-        extras=json.dumps([dict(e) for e in extras]), rtol=float(rtol), method=method,
-        detail=detail,
-        wob_klbf=float(wob_klbf if wob_klbf is not None else p.wob_klbf),
-        m_ref_kg=p.m_ref_kg, vadsim_version=_version,
-        grid_hash=hashlib.sha256(spec_text.encode()).hexdigest()[:16],
+        preset=s["preset"], mode=grid.mode, cycles=s["cycles"],
+        analyse_cycles=s["analyse_cycles"], overrides=json.dumps(s["overrides"]), law=s["law"],
+        gap_via=grid.gap_via, extras=json.dumps(s["extras"]), rtol=s["rtol"],
+        method=s["method"], detail=grid.detail, wob_klbf=s["wob_klbf"],
+        m_ref_kg=grid.settings.preset.m_ref_kg, vadsim_version=_version,
+        grid_hash=grid.hash[:16],
     )
     return ds
 
 
-def flow_sweep(preset: str = "7in-cde", flows: Sequence[float] | np.ndarray = (200.0,),
+def _progress_bar(grid: _Grid, todo: Sequence[_Chunk], progress: bool) -> Any:
+    if not progress:
+        return None
+    from tqdm.auto import tqdm
+
+    total = int(np.prod(grid.shape))
+    return tqdm(total=total, initial=total - sum(len(c.spec.flows) for c in todo), unit="run",
+                desc=f"{grid.settings.preset.name} sweep", smoothing=0.05)
+
+
+# --- the public entry points -------------------------------------------------------------------
+
+
+def sweep(
+    preset: str | None = None,
+    flows: Sequence[float] | np.ndarray = (200.0,),
+    axes: Mapping[str, Sequence[float] | np.ndarray] | None = None,
+    *,
+    settings: RunSettings | None = None,
+    overrides: Mapping[str, float] | None = None,
+    law: str | None = None,
+    extras: Sequence[ExtraSpec | Mapping[str, Any]] = (),
+    wob_klbf: float | None = None,
+    cycles: float | None = None,
+    analyse_cycles: float | None = None,
+    mode: str = "independent",
+    gap_via: str = "spring",
+    rtol: float | None = None,
+    method: str | None = None,
+    detail: str = "full",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    store: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> xr.Dataset:
+    """Run the model over flow rates and (optionally) one or more parameter axes.
+
+    Parameters
+    ----------
+    preset
+        Tool preset name (default ``"7in-cde"``, or the preset of ``settings``).
+    flows
+        Flow rates (gal/min), in the order a continuation sweep visits them.
+    axes
+        ``{name: values}`` for each design axis: a Table 2.1 parameter or ``gap_ratio`` /
+        ``gap`` (see :func:`design_overrides`). None: a plain flow sweep.
+    settings
+        Everything but the operating point, as one :class:`~vadsim.RunSettings`; instead of
+        ``overrides``, ``law``, ``extras``, ``wob_klbf``, ``cycles``, ``analyse_cycles``,
+        ``rtol`` and ``method`` (giving both is an error).
+    overrides, law, extras, wob_klbf
+        Applied to every point (``extras`` as :class:`~vadsim.model.settings.ExtraSpec` or
+        mappings with ``kind``, the arguments of :func:`vadsim.extra_force`).
+    cycles, analyse_cycles
+        Run length and steady window, in excitation cycles (default 400 and 200).
+    mode
+        ``"independent"``: every point starts from the static state. ``"continuation"``:
+        along each flow row, a point starts from the previous flow's final state.
+    gap_via
+        Which length realises a gap change.
+    rtol, method
+        CVODE relative tolerance and method (default 1e-6, ``"adams"``).
+    detail
+        ``"full"``: every label, peaks and J* on a 20 kHz grid, impact frequency from the
+        recorded x1. ``"map"``: regimes, J* and periodicity only (J* and peaks on a 5 kHz
+        grid, no impact frequency), about 25 % faster: for large maps.
+    workers
+        Local threads (default: all cores). Ignored with ``scheduler``.
+    scheduler
+        Address of a Dask scheduler (``"tcp://host:8786"``): the same grid runs there.
+    store
+        Folder for finished chunks. A sweep interrupted at any moment (Ctrl-C, kill -9) and
+        called again with the same arguments and store resumes where it stopped; several
+        processes given the same store share its chunks. Every chunk is verified when read (a
+        bad one is recomputed, with a :class:`StoreWarning`); a store of a different grid, or
+        whose grid cannot be verified, is refused (ValueError).
+    progress
+        Show a progress bar (tqdm) on stderr.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``(*axes, "flow_gpm")``; one variable per entry of :data:`FEATURES`, each
+        with ``description``, ``units`` and ``long_name`` (coordinates too); attributes
+        record the preset, mode, run length, overrides and the vadsim version.
+    """
+    run = _settings_from(preset, settings, dict(
+        overrides=overrides, law=law, extras=extras, wob_klbf=wob_klbf, cycles=cycles,
+        analyse_cycles=analyse_cycles, rtol=rtol, method=method))
+    grid = _make_grid(run, flows, axes, mode=mode, gap_via=gap_via, detail=detail,
+                      workers=workers, portable=store is not None or bool(scheduler))
+    chunks = grid.chunks()
+    opened = _Store.open(store, grid) if store is not None else None
+    done = opened.load(chunks) if opened is not None else {}
+    todo = [c for c in chunks if c.key not in done]
+    bar = _progress_bar(grid, todo, progress)
+    try:
+        if todo:
+            _run_chunks(todo, done, opened, workers, scheduler, bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    return _assemble(grid, chunks, done)
+
+
+def flow_sweep(preset: str | None = None, flows: Sequence[float] | np.ndarray = (200.0,),
                **kwargs: Any) -> xr.Dataset:
     """A sweep over flow rates only (see :func:`sweep` for the options)."""
     return sweep(preset, flows, None, **kwargs)
