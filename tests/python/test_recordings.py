@@ -7,7 +7,6 @@ that arbitrary damage yields a CampaignError and nothing else.
 
 from __future__ import annotations
 
-import csv
 import importlib.util
 import math
 import re
@@ -24,6 +23,7 @@ import vadsim
 import vadsim.recordings as rec
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from vadsim.campaigns.format import excerpt
 from vadsim.recordings import (
     KNOWN_TOOLS,
     Campaign,
@@ -401,6 +401,60 @@ def test_tool_preset_file(valid: Path, tmp_path: Path) -> None:
 def test_known_tools_constant() -> None:
     assert {"7in", "9.5in"} <= set(KNOWN_TOOLS)
     assert rec.KNOWN_BITS == ("CDE", "RC", "PDC")
+
+
+# --------------------------------------------------------------------------------------------
+# Error messages quote at most ~80 characters of a file or a TOML value
+
+HUGE = 200_000
+
+
+def test_excerpt() -> None:
+    assert excerpt("abc") == "'abc'"
+    assert excerpt("a" * 80) == repr("a" * 80)
+    assert excerpt("a" * 81) == "'" + "a" * 80 + "...' (81 characters)"
+    assert excerpt("it's" * 100).endswith('..." (400 characters)')
+    assert excerpt(12) == "12" and excerpt([1] * 5) == "[1, 1, 1, 1, 1]"
+    assert excerpt([1] * 1000) == "[" + "1, " * 26 + "1... (3000 characters)"
+    assert len(excerpt("\x00" * 1000)) < 400
+
+
+LONG_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
+    ("csv-header-column", _csv_line(1, "time_s,x1_g," + "y" * HUGE),
+     ["e01.csv", "line 1", "unexpected column", f"({HUGE} characters)"]),
+    ("csv-first-column", _csv_line(1, "z" * HUGE + ",x1_g,x5_g"),
+     ["e01.csv", "line 1", "time_s", f"({HUGE} characters)"]),
+    ("csv-token", _csv_cell(7, 1, "q" * HUGE), ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+    ("toml-bit", _toml_sub('bit = "CDE"', 'bit = "' + "X" * HUGE + '"'),
+     ["campaign.toml", "line 3", "key bit", f"({HUGE} characters)"]),
+    ("toml-name-array", _toml_sub('name = "base campaign"', "name = [" + "1," * HUGE + "]"),
+     ["campaign.toml", "line 1", "key name", "string", "characters)"]),
+    ("toml-key", _toml_sub('bit = "CDE"', 'bit = "CDE"\n' + "k" * HUGE + " = 1"),
+     ["campaign.toml", "unknown key", f"({HUGE} characters)"]),
+    ("toml-event-id", _toml_sub('id = "e01"\nflow_gpm = 200.0',
+                                'id = "' + "e" * HUGE + '"\nflow_gpm = 0'),
+     ["campaign.toml", "line 19", "events[0].flow_gpm", f"({HUGE} characters)"]),
+    ("toml-number", _toml_sub("rate_hz = 1024", "rate_hz = " + "9" * 4000),
+     ["campaign.toml", "line 8", "sensors.x1.rate_hz", "range", "(4000 characters)"]),
+    ("toml-file", _toml_sub('file = "e01.csv"', 'file = "' + "f" * HUGE + '"'),
+     ["campaign.toml", "line 20", "events[0].file", f"({HUGE} characters)"]),
+    ("toml-tool", _toml_sub('tool = "7in"', 'tool = "' + "t" * HUGE + '"'),
+     ["campaign.toml", "line 2", "key tool", f"({HUGE} characters)"]),
+]
+
+
+@pytest.mark.parametrize(("damage", "fragments"), [(d, f) for _, d, f in LONG_CASES],
+                         ids=[c[0] for c in LONG_CASES])
+def test_error_messages_quote_little(valid: Path, damage: Callable[[Path], None],
+                                     fragments: list[str]) -> None:
+    damage(valid)
+    with pytest.raises(CampaignError) as info:
+        load_campaign(valid)
+    message = str(info.value)
+    for fragment in fragments:
+        assert fragment in message, f"{fragment!r} not in {message[:2000]!r}"
+    # The folder's path appears at most twice; everything else is short.
+    assert len(message) < 600 + 2 * len(str(valid)), message[:2000]
 
 
 # --------------------------------------------------------------------------------------------

@@ -50,6 +50,7 @@ __all__ = [
     "Sensor",
     "Event",
     "Campaign",
+    "excerpt",
     "BARE_KEY_RE",
     "toml_str",
 ]
@@ -74,7 +75,29 @@ TIME_RESOLUTION_S = 1e-7
 #: Name of the campaign description file inside a campaign folder.
 CAMPAIGN_FILE = "campaign.toml"
 
+#: How much of a file's text or a TOML value an error message quotes at most (characters).
+EXCERPT_CHARS = 80
 
+
+def excerpt(value: object, limit: int = EXCERPT_CHARS) -> str:
+    """``value`` quoted for an error message, cut to ``limit`` characters when longer.
+
+    A string is shown as its repr, ``'abc...' (12345 characters)`` when cut; anything else as
+    its repr, cut the same way. Error messages quote field files and TOML values through this
+    one helper so that a 200 MB header line never becomes a 200 MB message.
+    """
+    if isinstance(value, str):
+        if len(value) <= limit:
+            return repr(value)
+        quoted = repr(value[:limit])
+        return f"{quoted[:-1]}...{quoted[-1]} ({len(value)} characters)"
+    try:
+        text = repr(value)
+    except ValueError:  # ints beyond sys.get_int_max_str_digits() have no repr
+        return f"<{type(value).__name__} too large to print>"
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text)} characters)"
 
 
 class CampaignError(ValueError):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 import re
 import tomllib
 import warnings
@@ -17,8 +18,8 @@ import numpy as np
 import pandas as pd
 
 from vadsim.campaigns.format import (
-    BARE_KEY_RE,
     CAMPAIGN_FILE,
+    EXCERPT_CHARS,
     FEATURES,
     KNOWN_BITS,
     KNOWN_TOOLS,
@@ -29,7 +30,7 @@ from vadsim.campaigns.format import (
     ClippedSamplesWarning,
     Event,
     Sensor,
-    toml_str,
+    excerpt,
 )
 
 __all__ = ["TomlContext", "load_campaign", "parse_document", "time_problem", "tool_file"]
@@ -37,9 +38,9 @@ __all__ = ["TomlContext", "load_campaign", "parse_document", "time_problem", "to
 _TOP_KEYS = ("name", "tool", "bit", "wob_klbf", "description", "sensors", "events")
 _SENSOR_KEYS = ("dof", "rate_hz", "range_g", "lowpass_hz")
 _EVENT_KEYS = ("id", "flow_gpm", "wob_klbf", "file", "features", "reference")
-# Sensor names become CSV column prefixes and TOML keys; restricting them to TOML's bare-key
-# alphabet keeps both unambiguous without quoting rules.
-_SENSOR_NAME_RE = re.compile(r"[A-Za-z0-9_-]+")
+# TOML's bare-key alphabet. Sensor names become CSV column prefixes and TOML keys; restricting
+# them to it keeps both unambiguous without quoting rules.
+_BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
 _NUMBER_RE = re.compile(r"\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*")
 # Tokens pandas reads as missing values; named as such rather than as "non-numeric".
 _NA_TOKENS = frozenset(
@@ -131,7 +132,8 @@ def _format_key(path: tuple[str | int, ...]) -> str:
         if isinstance(part, int):
             out += f"[{part}]"
         else:
-            text = part if BARE_KEY_RE.fullmatch(part) else toml_str(part)
+            bare = len(part) <= EXCERPT_CHARS and _BARE_KEY_RE.fullmatch(part)
+            text = part if bare else excerpt(part)
             out += f".{text}" if out else text
     return out
 
@@ -164,7 +166,7 @@ def _get_str(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, 
         return None
     value = table[key]
     if not isinstance(value, str):
-        ctx.fail(path, f"must be a string, got {_type_name(value)} {value!r}", label)
+        ctx.fail(path, f"must be a string, got {_type_name(value)} {excerpt(value)}", label)
     if not value.strip():
         ctx.fail(path, "must not be empty", label)
     return value
@@ -180,13 +182,13 @@ def _get_number(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | in
         return None
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, int | float):
-        ctx.fail(path, f"must be a number, got {_type_name(value)} {value!r}", label)
+        ctx.fail(path, f"must be a number, got {_type_name(value)} {excerpt(value)}", label)
     try:
         number = float(value)
     except OverflowError:
-        ctx.fail(path, f"number out of range: {value!r}", label)
+        ctx.fail(path, f"number out of range: {excerpt(value)}", label)
     if not math.isfinite(number):
-        ctx.fail(path, f"must be a finite number, got {value!r}", label)
+        ctx.fail(path, f"must be a finite number, got {excerpt(value)}", label)
     return number
 
 
@@ -194,7 +196,7 @@ def _get_positive(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | 
                   required: bool = True, label: str = "") -> float | None:
     number = _get_number(ctx, table, path, required, label)
     if number is not None and number <= 0:
-        ctx.fail(path, f"must be > 0, got {table[str(path[-1])]!r}", label)
+        ctx.fail(path, f"must be > 0, got {excerpt(table[str(path[-1])])}", label)
     return number
 
 
@@ -235,10 +237,10 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) 
     bit = _get_str(ctx, doc, ("bit",))
     assert name is not None and tool is not None and bit is not None
     if bit not in KNOWN_BITS:
-        ctx.fail(("bit",), f"unknown bit {bit!r} (allowed: {' | '.join(KNOWN_BITS)})")
+        ctx.fail(("bit",), f"unknown bit {excerpt(bit)} (allowed: {' | '.join(KNOWN_BITS)})")
     if tool not in KNOWN_TOOLS and root is not None and tool_file(root, tool) is None:
-        ctx.fail(("tool",), f"unknown tool {tool!r}: neither a known preset "
-                 f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file {root / tool}")
+        ctx.fail(("tool",), f"unknown tool {excerpt(tool)}: neither a known preset "
+                 f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file in {root}")
     wob_default = _get_positive(ctx, doc, ("wob_klbf",), required=False)
     description = ""
     if "description" in doc:
@@ -263,7 +265,7 @@ def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor
     sensors: dict[str, Sensor] = {}
     for sname, spec in table.items():
         path: tuple[str | int, ...] = ("sensors", sname)
-        if not _SENSOR_NAME_RE.fullmatch(sname):
+        if not _BARE_KEY_RE.fullmatch(sname):
             ctx.fail(path, "sensor names may only use letters, digits, '_' and '-'")
         if not isinstance(spec, dict):
             ctx.fail(path, f"must be a table, got {_type_name(spec)}")
@@ -272,9 +274,10 @@ def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor
             ctx.fail(path + ("dof",), "required key is missing")
         dof = spec["dof"]
         if isinstance(dof, bool) or not isinstance(dof, int):
-            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {_type_name(dof)} {dof!r}")
+            ctx.fail(path + ("dof",),
+                     f"must be an integer 1..7, got {_type_name(dof)} {excerpt(dof)}")
         if not 1 <= dof <= 7:
-            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {dof}")
+            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {excerpt(dof)}")
         rate = _get_positive(ctx, spec, path + ("rate_hz",))
         range_g = _get_positive(ctx, spec, path + ("range_g",))
         lowpass = _get_positive(ctx, spec, path + ("lowpass_hz",), required=False)
@@ -305,10 +308,10 @@ def _parse_events(ctx: TomlContext, doc: Mapping[str, Any], sensors: Mapping[str
             ctx.fail(path, f"must be a table, got {_type_name(spec)}")
         event_id = _get_str(ctx, spec, path + ("id",))
         assert event_id is not None
-        label = f" (event {event_id!r})"
+        label = f" (event {excerpt(event_id)})"
         _check_keys(ctx, spec, path, _EVENT_KEYS, label)
         if event_id in first_index:
-            ctx.fail(path + ("id",), f"duplicate event id {event_id!r}, already used by "
+            ctx.fail(path + ("id",), f"duplicate event id {excerpt(event_id)}, already used by "
                      f"events[{first_index[event_id]}]", label)
         first_index[event_id] = i
         flow = _get_positive(ctx, spec, path + ("flow_gpm",), label=label)
@@ -351,12 +354,12 @@ def _parse_features(ctx: TomlContext, spec: Mapping[str, Any], path: tuple[str |
         kpath = path + ("features", key)
         if _split_feature(key, sensors) is None:
             ctx.fail(kpath, f"feature keys are <sensor>_<feature> with a declared sensor "
-                     f"({', '.join(sensors)}) and a feature in {{{', '.join(FEATURES)}}}",
+                     f"({excerpt(', '.join(sensors))}) and a feature in {{{', '.join(FEATURES)}}}",
                      label)
         value = _get_number(ctx, table, kpath, label=label)
         assert value is not None
         if value < 0:
-            ctx.fail(kpath, f"must be >= 0, got {value!r}", label)
+            ctx.fail(kpath, f"must be >= 0, got {excerpt(value)}", label)
         features[key] = value
     return features
 
@@ -422,41 +425,45 @@ def _diagnose_rows(text: str, columns: list[str]) -> tuple[int, str] | None:
         for col, token in zip(columns, fields, strict=True):
             low = token.strip().lower()
             if low in _NA_TOKENS:
-                return lineno, f"column {col!r}: missing value or NaN ({token!r})"
+                return lineno, f"column {excerpt(col)}: missing value or NaN ({excerpt(token)})"
             if low in _INF_TOKENS:
-                return lineno, f"column {col!r}: infinite value ({token!r})"
+                return lineno, f"column {excerpt(col)}: infinite value ({excerpt(token)})"
             if not _NUMBER_RE.fullmatch(token):
-                return lineno, f"column {col!r}: non-numeric value {token!r}"
+                return lineno, f"column {excerpt(col)}: non-numeric value {excerpt(token)}"
             if not math.isfinite(float(token)):
-                return lineno, f"column {col!r}: value out of float range ({token!r})"
+                return lineno, (f"column {excerpt(col)}: value out of float range "
+                                f"({excerpt(token)})")
     return None
 
 
 def _check_header(header: list[str], expected: list[str], where: str) -> None:
     """The header names ``time_s`` first and each declared sensor's column exactly once."""
+    wanted = excerpt(",".join(expected))
     if header[0] != "time_s":
         raise CampaignError(f"{where}, line 1: the first column must be 'time_s', found "
-                            f"{header[0]!r} (expected header {','.join(expected)})")
+                            f"{excerpt(header[0])} (expected header {wanted})")
     for j, col in enumerate(header):
         if col in header[:j]:
-            raise CampaignError(f"{where}, line 1: column {col!r} appears twice")
+            raise CampaignError(f"{where}, line 1: column {excerpt(col)} appears twice")
         if col not in expected:
             sensor = col[:-2] if col.endswith("_g") else None
-            why = (f"no sensor {sensor!r} is declared" if sensor
+            why = (f"no sensor {excerpt(sensor)} is declared" if sensor
                    else "sensor columns are named <sensor>_g")
-            raise CampaignError(f"{where}, line 1: unexpected column {col!r} ({why}; "
-                                f"expected columns {','.join(expected)})")
+            raise CampaignError(f"{where}, line 1: unexpected column {excerpt(col)} ({why}; "
+                                f"expected columns {wanted})")
     for col in expected:
         if col not in header:
-            raise CampaignError(f"{where}, line 1: missing column {col!r} for sensor "
-                                f"{col[:-2]!r} declared in {CAMPAIGN_FILE}")
+            raise CampaignError(f"{where}, line 1: missing column {excerpt(col)} for sensor "
+                                f"{excerpt(col[:-2])} declared in {CAMPAIGN_FILE}")
 
 
 def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
-                    label: str) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
-    """Read and validate one event CSV; return the samples and the clipping masks."""
+                    where: str) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
+    """Read and validate one event CSV; return the samples and the clipping masks.
+
+    ``where`` starts every error message (the file as the campaign names it, and the event).
+    """
     expected = ["time_s"] + [s.column for s in sensors.values()]
-    where = f"{path}{label}"
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -465,7 +472,7 @@ def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
     raw = raw.rstrip(b" \t\r\n")
     if not raw.strip():
         raise CampaignError(f"{where}, line 1: empty file; expected the header "
-                            f"{','.join(expected)}")
+                            f"{excerpt(','.join(expected))}")
     head_and_body = _LINE_SPLIT_BYTES_RE.split(raw, maxsplit=1)
     try:
         # Only the header is decoded up front: pandas parses the bytes faster than a str.
@@ -588,20 +595,23 @@ def load_campaign(path: str | Path) -> Campaign:
     for i, event in enumerate(campaign.events):
         if event.file is None:
             continue
-        label = f" (event {event.id!r})"
+        label = f" (event {excerpt(event.id)})"
         csv_path = root / event.file
+        shown = (root / event.file if len(event.file) <= EXCERPT_CHARS
+                 else f"{root}{os.sep}{excerpt(event.file)}")
         try:
             exists = csv_path.is_file()
         except (OSError, ValueError):
             exists = False
         if not exists:
-            ctx.fail(("events", i, "file"), f"CSV file not found: {csv_path}", label)
-        event.data, event.clipped = _read_event_csv(csv_path, campaign.sensors, label)
+            ctx.fail(("events", i, "file"), f"CSV file not found: {shown}", label)
+        event.data, event.clipped = _read_event_csv(csv_path, campaign.sensors,
+                                                    f"{shown}{label}")
         if event.n_clipped:
             per_sensor = ", ".join(f"{name}: {int(np.count_nonzero(m))}"
                                    for name, m in event.clipped.items() if m.any())
             warnings.warn(
-                f"{csv_path}{label}: {event.n_clipped} samples at or beyond the sensor range "
+                f"{shown}{label}: {event.n_clipped} samples at or beyond the sensor range "
                 f"({per_sensor}); flagged in Event.clipped, do not trust their values",
                 ClippedSamplesWarning, stacklevel=2,
             )

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from vadsim.campaigns.format import Campaign
+from vadsim.campaigns.format import Campaign, excerpt
 from vadsim.campaigns.reading import load_campaign
 from vadsim.campaigns.thesis import thesis_campaigns
 from vadsim.model.presets import Preset, get_preset, load_preset_file
@@ -24,7 +24,7 @@ def load_any_campaign(source: str | os.PathLike[str] | Campaign) -> Campaign:
         key = text.split(":", 1)[1]
         shipped = thesis_campaigns()
         if key not in shipped:
-            raise ValueError(f"unknown shipped campaign {text!r}: choose thesis:"
+            raise ValueError(f"unknown shipped campaign {excerpt(text)}: choose thesis:"
                              + ", thesis:".join(shipped))
         return shipped[key]
     return load_campaign(text)

@@ -20,11 +20,13 @@ from vadsim.campaigns.format import (
     Campaign,
     CampaignError,
     Sensor,
+    excerpt,
     toml_str,
 )
 from vadsim.campaigns.reading import TomlContext, parse_document, time_problem, tool_file
 
 __all__ = ["save_campaign"]
+
 
 def _toml_value(value: Any) -> str:
     # Only the types a campaign holds; TOML spells bool lowercase and float specials bare.
@@ -43,7 +45,7 @@ def _toml_value(value: Any) -> str:
     if isinstance(value, Mapping):
         items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
         return f"{{ {items} }}" if items else "{}"
-    raise CampaignError(f"cannot write a {type(value).__name__} value to TOML: {value!r}")
+    raise CampaignError(f"cannot write a {type(value).__name__} value to TOML: {excerpt(value)}")
 
 
 def _toml_key(key: str) -> str:
@@ -110,9 +112,10 @@ def _event_values(data: pd.DataFrame, sensors: Mapping[str, Sensor], label: str)
     extra = [c for c in data.columns if c not in columns]
     missing = [c for c in columns if c not in data.columns]
     if extra or missing:
-        raise CampaignError(f"event{label}: data columns must be {', '.join(columns)}"
-                            f"{'; unexpected ' + ', '.join(map(str, extra)) if extra else ''}"
-                            f"{'; missing ' + ', '.join(missing) if missing else ''}")
+        unexpected = "; unexpected " + excerpt(", ".join(map(str, extra))) if extra else ""
+        absent = "; missing " + excerpt(", ".join(missing)) if missing else ""
+        raise CampaignError(f"event{label}: data columns must be "
+                            f"{excerpt(', '.join(columns))}{unexpected}{absent}")
     values = data[columns].to_numpy(dtype=np.float64)
     if values.shape[0] < 2:
         raise CampaignError(f"event{label}: data needs at least 2 samples")
@@ -172,8 +175,8 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
     folder = Path(folder)
     for key, sensor in campaign.sensors.items():
         if sensor.name != key:
-            raise CampaignError(f"sensors[{key!r}]: Sensor.name is {sensor.name!r}, "
-                                f"it must equal its key")
+            raise CampaignError(f"sensors[{excerpt(key)}]: Sensor.name is "
+                                f"{excerpt(sensor.name)}, it must equal its key")
 
     tool = campaign.tool
     tool_source: Path | None = None
@@ -181,8 +184,8 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
         base = campaign.root if campaign.root is not None else Path.cwd()
         tool_source = tool_file(base, tool)
         if tool_source is None:
-            raise CampaignError(f"tool {tool!r}: neither a known preset "
-                                f"({', '.join(KNOWN_TOOLS)}) nor an existing file {base / tool}")
+            raise CampaignError(f"tool {excerpt(tool)}: neither a known preset "
+                                f"({', '.join(KNOWN_TOOLS)}) nor an existing file in {base}")
         if not _safe_relative(tool):
             tool, tool_source = str(tool_source.resolve()), None
 
@@ -191,30 +194,30 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
     for ev in campaign.events:
         if ev.data is None:
             if ev.file is not None:
-                raise CampaignError(f"event {ev.id!r}: file {ev.file!r} is set but data is "
-                                    f"None; nothing to write")
+                raise CampaignError(f"event {excerpt(ev.id)}: file {excerpt(ev.file)} is set "
+                                    f"but data is None; nothing to write")
             continue
         name = ev.file if ev.file is not None and _safe_relative(ev.file) else (
             re.sub(r"[^A-Za-z0-9._-]", "_", ev.id) + ".csv")
         if name in owners:
-            raise CampaignError(f"events {owners[name]!r} and {ev.id!r} would both be written "
-                                f"to {name}")
+            raise CampaignError(f"events {excerpt(owners[name])} and {excerpt(ev.id)} would "
+                                f"both be written to {excerpt(name)}")
         owners[name] = ev.id
         files[ev.id] = name
 
     doc, text = _campaign_document(campaign, tool, files)
     # Same validator as load_campaign, so nothing is written that would not load back.
-    parse_document(doc, TomlContext(f"campaign {campaign.name!r}", None), None)
+    parse_document(doc, TomlContext(f"campaign {excerpt(campaign.name)}", None), None)
 
     # All samples are checked before the first byte is written: no half-written folder.
     for ev in campaign.events:
         if ev.id in files:
-            _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+            _event_values(ev.data, campaign.sensors, f" {excerpt(ev.id)}")
 
     folder.mkdir(parents=True, exist_ok=True)
     for ev in campaign.events:
         if ev.id in files:
-            values = _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+            values = _event_values(ev.data, campaign.sensors, f" {excerpt(ev.id)}")
             _write_event_csv(folder / files[ev.id], values, campaign.sensors)
     if tool_source is not None:
         dest = folder / tool
