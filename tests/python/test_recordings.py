@@ -321,6 +321,16 @@ BAD_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
      ["e01.csv", "line 3", "1024 Hz", "means 512.0"]),
     ("csv-second-file", _edit("e03.csv", lambda t: t.replace("\n", "\nbad,1,2\n", 1)),
      ["e03.csv", "line 2", "time_s", "'bad'"]),
+    # Digits and blanks of other scripts: Python's float() reads '١٢٣' as 123, the format
+    # holds ASCII decimals only.
+    ("csv-arabic-indic-digits", _csv_cell(7, 1, "\u0661\u0662\u0663"),
+     ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+    ("csv-fullwidth-digits", _csv_cell(7, 2, "\uff11.\uff15"),
+     ["e01.csv", "line 7", "x5_g", "non-numeric"]),
+    ("csv-devanagari-time", _csv_cell(7, 0, "\u0966.\u0966\u0966\u096b"),
+     ["e01.csv", "line 7", "time_s", "non-numeric"]),
+    ("csv-no-break-space", _csv_cell(7, 1, "\u00a01.5"),
+     ["e01.csv", "line 7", "x1_g", "non-numeric"]),
 ]
 
 
@@ -425,6 +435,8 @@ LONG_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
     ("csv-first-column", _csv_line(1, "z" * HUGE + ",x1_g,x5_g"),
      ["e01.csv", "line 1", "time_s", f"({HUGE} characters)"]),
     ("csv-token", _csv_cell(7, 1, "q" * HUGE), ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+    # Also a long run of digits that is no number: the number check must fail quickly.
+    ("csv-digits", _csv_cell(7, 1, "1" * HUGE + "x"), ["e01.csv", "line 7", "x1_g"]),
     ("toml-bit", _toml_sub('bit = "CDE"', 'bit = "' + "X" * HUGE + '"'),
      ["campaign.toml", "line 3", "key bit", f"({HUGE} characters)"]),
     ("toml-name-array", _toml_sub('name = "base campaign"', "name = [" + "1," * HUGE + "]"),
@@ -440,6 +452,9 @@ LONG_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
      ["campaign.toml", "line 20", "events[0].file", f"({HUGE} characters)"]),
     ("toml-tool", _toml_sub('tool = "7in"', 'tool = "' + "t" * HUGE + '"'),
      ["campaign.toml", "line 2", "key tool", f"({HUGE} characters)"]),
+    # A header with a long run of blanks: the scan for line numbers must stay linear.
+    ("toml-sensor-name", _toml_sub("[sensors.x5]", '[sensors."x' + " " * HUGE + '5"]'),
+     ["campaign.toml", "line 12", "sensors", f"({HUGE + 2} characters)"]),
 ]
 
 
@@ -455,6 +470,18 @@ def test_error_messages_quote_little(valid: Path, damage: Callable[[Path], None]
         assert fragment in message, f"{fragment!r} not in {message[:2000]!r}"
     # The folder's path appears at most twice; everything else is short.
     assert len(message) < 600 + 2 * len(str(valid)), message[:2000]
+
+
+def test_header_scan_finds_lines_of_spaced_and_quoted_headers(valid: Path) -> None:
+    text = (valid / "campaign.toml").read_text()
+    text = text.replace("[sensors.x5]", "  [ sensors . 'x5' ]  # the motor sensor")
+    text = text.replace("[[events]]", '[[ "events" ]] # one event', 3)
+    (valid / "campaign.toml").write_text(text.replace("dof = 5", "dof = 9"))
+    with pytest.raises(CampaignError, match=r"line 13: key sensors\.x5\.dof"):
+        load_campaign(valid)
+    (valid / "campaign.toml").write_text(text.replace("flow_gpm = 300.0", "flow_gpm = -3"))
+    with pytest.raises(CampaignError, match=r"line 31: key events\[2\]\.flow_gpm"):
+        load_campaign(valid)
 
 
 # --------------------------------------------------------------------------------------------

@@ -41,7 +41,11 @@ _EVENT_KEYS = ("id", "flow_gpm", "wob_klbf", "file", "features", "reference")
 # TOML's bare-key alphabet. Sensor names become CSV column prefixes and TOML keys; restricting
 # them to it keeps both unambiguous without quoting rules.
 _BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
-_NUMBER_RE = re.compile(r"\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*")
+# A decimal number as the CSV cells hold it. ASCII only: in Python `\d` and `\s` also match
+# other scripts' digits and spaces, and float() would read '١٢٣' as 123. Written without
+# overlapping repeats so a long token fails in linear time.
+_NUMBER_RE = re.compile(r"\s*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*",
+                        re.ASCII)
 # Tokens pandas reads as missing values; named as such rather than as "non-numeric".
 _NA_TOKENS = frozenset(
     {"", "nan", "+nan", "-nan", "na", "n/a", "null", "none", "#n/a", "#na", "<na>",
@@ -57,23 +61,38 @@ _LINE_SPLIT_BYTES_RE = re.compile(rb"\r\n|\r|\n")
 # usual layout ([sensors.x], [[events]]) and gives up (key only) on anything fancier.
 
 
-class _TomlLines:
-    _ARRAY_HDR = re.compile(r"\s*\[\[\s*([^\[\]]+?)\s*\]\]\s*(?:#.*)?$")
-    _TABLE_HDR = re.compile(r"\s*\[\s*([^\[\]]+?)\s*\]\s*(?:#.*)?$")
+def _table_header(line: str) -> tuple[str, str] | None:
+    """``("array", name)`` for a ``[[name]]`` line, ``("table", name)`` for ``[name]``, else
+    None; the name with blanks around dots and quotes removed (``sensors.x1``).
 
+    Plain string scanning, linear in the line: the regular expressions this replaces took
+    quadratic time on a long run of blanks inside a header.
+    """
+    text = line.strip()
+    kind, opening, closing = (("array", "[[", "]]") if text.startswith("[[")
+                              else ("table", "[", "]"))
+    if not text.startswith(opening):
+        return None
+    end = text.find("]", len(opening))
+    if end < 0 or not text.startswith(closing, end):
+        return None
+    name = text[len(opening):end]
+    rest = text[end + len(closing):].lstrip()
+    if "[" in name or not name.strip() or (rest and not rest.startswith("#")):
+        return None
+    parts = (part.strip() for part in name.strip().split("."))
+    return kind, ".".join(parts).replace('"', "").replace("'", "")
+
+
+class _TomlLines:
     def __init__(self, text: str) -> None:
         self.lines = text.split("\n")
         # (first line number, kind, normalised name); line numbers are 1-based.
         self.headers: list[tuple[int, str, str]] = []
         for i, line in enumerate(self.lines, start=1):
-            m = self._ARRAY_HDR.match(line)
-            kind = "array"
-            if m is None:
-                m = self._TABLE_HDR.match(line)
-                kind = "table"
-            if m is not None:
-                name = re.sub(r"\s*\.\s*", ".", m.group(1)).replace('"', "").replace("'", "")
-                self.headers.append((i, kind, name))
+            header = _table_header(line)
+            if header is not None:
+                self.headers.append((i, *header))
 
     def _segment(self, kind: str, name: str, nth: int = 0) -> tuple[int, int] | None:
         seen = 0
