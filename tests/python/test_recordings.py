@@ -331,6 +331,24 @@ BAD_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
      ["e01.csv", "line 7", "time_s", "non-numeric"]),
     ("csv-no-break-space", _csv_cell(7, 1, "\u00a01.5"),
      ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+    # Booleans are not numbers, although Python's bool is an int.
+    ("flow-bool", _toml_sub("flow_gpm = 200.0", "flow_gpm = true"),
+     ["line 19", "events[0].flow_gpm", "'e01'", "number", "boolean"]),
+    ("event-wob-bool", _toml_sub("wob_klbf = 5.0", "wob_klbf = true"),
+     ["line 25", "events[1].wob_klbf", "number", "boolean"]),
+    ("campaign-wob-bool", _toml_sub("wob_klbf = 4.0", "wob_klbf = false"),
+     ["line 4", "key wob_klbf", "number", "boolean"]),
+    ("rate-bool", _toml_sub("rate_hz = 1024", "rate_hz = true"),
+     ["line 8", "sensors.x1.rate_hz", "number", "boolean"]),
+    ("range-bool", _toml_sub("range_g = 250", "range_g = true"),
+     ["line 9", "sensors.x1.range_g", "number", "boolean"]),
+    ("lowpass-bool", _toml_sub("lowpass_hz = 400", "lowpass_hz = true"),
+     ["line 10", "sensors.x1.lowpass_hz", "number", "boolean"]),
+    ("feature-bool", _toml_sub("x1_impact_hz = 24.0", "x1_impact_hz = true"),
+     ["line 26", "events[1].features.x1_impact_hz", "number", "boolean"]),
+    # Integers beyond Python's digit limit for int(str): tomllib raises a plain ValueError.
+    ("rate-int-beyond-digit-limit", _toml_sub("rate_hz = 1024", "rate_hz = " + "9" * 5000),
+     ["campaign.toml"]),
 ]
 
 

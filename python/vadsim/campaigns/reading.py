@@ -608,6 +608,10 @@ def load_campaign(path: str | Path) -> Campaign:
         raise CampaignError(f"{toml_path}: TOML syntax error: {msg}") from None
     except RecursionError:
         raise CampaignError(f"{toml_path}: TOML syntax error: nesting too deep") from None
+    except ValueError as exc:
+        # Not a TOMLDecodeError: an integer beyond Python's digit limit for int(str).
+        raise CampaignError(f"{toml_path}: TOML value cannot be read: {excerpt(str(exc))}"
+                            ) from None
 
     ctx = TomlContext(toml_path, text)
     campaign = parse_document(doc, ctx, root)
