@@ -7,8 +7,10 @@ that arbitrary damage yields a CampaignError and nothing else.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import math
+import os
 import re
 import tempfile
 import warnings
@@ -31,6 +33,8 @@ from vadsim.recordings import (
     ClippedSamplesWarning,
     Event,
     Sensor,
+    campaign_preset,
+    load_any_campaign,
     load_campaign,
     save_campaign,
     thesis_campaigns,
@@ -432,6 +436,139 @@ def test_known_tools_constant() -> None:
 
 
 # --------------------------------------------------------------------------------------------
+# A campaign reads only files inside its own folder (unless allow_outside=True)
+
+SECRET = "SECRET_VALUE_4f1c"
+PRESET_TOML = 'name = "outside preset"\nbase = "7in-rc"\n'
+
+
+@pytest.fixture
+def outside(tmp_path: Path) -> Path:
+    """A folder next to the campaign: a valid event CSV, a file with a secret, a preset."""
+    out = tmp_path / "outside"
+    out.mkdir()
+    (out / "e01.csv").write_text(_csv_text(101))
+    (out / "secret.csv").write_text(f"{SECRET},x1_g,x5_g\n")
+    (out / "preset.toml").write_text(PRESET_TOML)
+    return out
+
+
+def _point_e01_outside(folder: Path, outside: Path, how: str) -> None:
+    """Make event e01 of the campaign in ``folder`` name outside/e01.csv in one way."""
+    if how == "dotdot":
+        name = "../outside/e01.csv"
+    elif how == "dotdot-via-subfolder":
+        (folder / "sub").mkdir()
+        name = "sub/../../outside/e01.csv"
+    elif how == "absolute":
+        name = str(outside / "e01.csv")
+    elif how == "symlinked-file":
+        (folder / "link.csv").symlink_to(outside / "e01.csv")
+        name = "link.csv"
+    elif how == "symlinked-folder":
+        (folder / "data").symlink_to(outside, target_is_directory=True)
+        name = "data/e01.csv"
+    else:
+        raise AssertionError(how)
+    _toml_sub('file = "e01.csv"', f"file = {name!r}")(folder)
+
+
+@pytest.mark.parametrize("how", ["dotdot", "dotdot-via-subfolder", "absolute", "symlinked-file",
+                                 "symlinked-folder"])
+def test_event_file_outside_the_folder_is_refused(valid: Path, outside: Path, how: str) -> None:
+    _point_e01_outside(valid, outside, how)
+    with pytest.raises(CampaignError) as info:
+        load_campaign(valid)
+    message = str(info.value)
+    for fragment in ["campaign.toml", "line 20", "events[0].file", "'e01'",
+                     "leaves the campaign folder"]:
+        assert fragment in message, f"{fragment!r} not in {message!r}"
+    # With the explicit flag the same file is read, and it is the outside one.
+    c = load_campaign(valid, allow_outside=True)
+    expected = pd.read_csv(outside / "e01.csv").to_numpy()
+    np.testing.assert_array_equal(c.events[0].data.to_numpy(), expected)
+    assert c.allow_outside
+
+
+@pytest.mark.parametrize("name", ["../outside/secret.csv", "/proc/self/environ"])
+def test_refusal_does_not_print_the_file(valid: Path, outside: Path, name: str) -> None:
+    if not Path(name).is_absolute():
+        assert (valid / name).is_file()
+    elif not Path(name).exists():
+        pytest.skip(f"{name} does not exist here")
+    _toml_sub('file = "e01.csv"', f"file = {name!r}")(valid)
+    with pytest.raises(CampaignError, match="leaves the campaign folder") as info:
+        load_campaign(valid)
+    message = str(info.value)
+    assert SECRET not in message
+    assert not [k for k, v in os.environ.items() if len(v) > 3 and f"{k}={v}" in message]
+    assert len(message) < 500 + len(str(valid))
+
+
+def test_symlink_inside_the_folder_is_fine(valid: Path) -> None:
+    (valid / "sub").mkdir()
+    (valid / "sub" / "alias.csv").symlink_to(valid / "e01.csv")
+    _toml_sub('file = "e01.csv"', 'file = "sub/alias.csv"')(valid)
+    c = load_campaign(valid)
+    assert not c.allow_outside
+    expected = pd.read_csv(valid / "e01.csv").to_numpy()
+    np.testing.assert_array_equal(c.events[0].data.to_numpy(), expected)
+
+
+def _point_tool_outside(folder: Path, outside: Path, how: str) -> None:
+    if how == "absolute":
+        name = str(outside / "preset.toml")
+    elif how == "dotdot":
+        name = "../outside/preset.toml"
+    elif how == "symlinked-file":
+        (folder / "mytool.toml").symlink_to(outside / "preset.toml")
+        name = "mytool.toml"
+    else:
+        raise AssertionError(how)
+    _toml_sub('tool = "7in"', f"tool = {name!r}")(folder)
+
+
+@pytest.mark.parametrize("how", ["absolute", "dotdot", "symlinked-file"])
+def test_tool_file_outside_the_folder_is_refused(valid: Path, outside: Path, how: str,
+                                                 tmp_path: Path) -> None:
+    _point_tool_outside(valid, outside, how)
+    for load in (load_campaign, load_any_campaign):
+        with pytest.raises(CampaignError) as info:
+            load(valid)
+        message = str(info.value)
+        for fragment in ["campaign.toml", "line 2", "key tool", "leaves the campaign folder"]:
+            assert fragment in message, f"{fragment!r} not in {message!r}"
+
+    c = load_any_campaign(valid, allow_outside=True)
+    assert c.allow_outside and campaign_preset(c).name == "outside preset"
+    assert campaign_preset(c).bit == "RC"
+    # campaign_preset checks again: the flag travels with the campaign, not with the folder.
+    with pytest.raises(CampaignError, match="key tool.*leaves the campaign folder"):
+        campaign_preset(dataclasses.replace(c, allow_outside=False))
+    # Saving copies the preset in: the copy is self-contained and loads without the flag.
+    with pytest.raises(CampaignError, match="key tool.*leaves the campaign folder"):
+        save_campaign(dataclasses.replace(c, allow_outside=False), tmp_path / "refused")
+    assert not (tmp_path / "refused").exists()
+    copy = load_campaign(save_campaign(c, tmp_path / "copy"))
+    assert copy.tool == (outside / "preset.toml").name
+    assert (tmp_path / "copy" / copy.tool).read_text() == PRESET_TOML
+    assert campaign_preset(copy).name == "outside preset"
+    assert dataclasses.replace(copy, tool=c.tool) == c
+
+
+def test_campaign_preset_without_root_stays_in_the_current_folder(
+        valid: Path, outside: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(valid)
+    c = dataclasses.replace(load_campaign(valid), root=None, tool=str(outside / "preset.toml"))
+    with pytest.raises(CampaignError, match="key tool.*leaves the campaign folder"):
+        campaign_preset(c)
+    assert campaign_preset(dataclasses.replace(c, allow_outside=True)).name == "outside preset"
+    (valid / "here.toml").write_text(PRESET_TOML)
+    assert campaign_preset(dataclasses.replace(c, tool="here.toml")).name == "outside preset"
+    assert campaign_preset(dataclasses.replace(c, tool="7in")).name == "7in-cde"
+
+
+# --------------------------------------------------------------------------------------------
 # Error messages quote at most ~80 characters of a file or a TOML value
 
 HUGE = 200_000
@@ -626,7 +763,8 @@ def test_save_names_files_of_events_without_one(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("case", ["bit", "file-without-data", "no-file-no-features",
-                                  "bad-columns", "nan", "time", "same-file", "sensor-name"])
+                                  "bad-columns", "nan", "time", "same-file", "sensor-name",
+                                  "file-is-campaign-toml"])
 def test_save_refuses_what_would_not_load(tmp_path: Path, case: str) -> None:
     data = pd.DataFrame({"time_s": [0.0, 0.5, 1.0], "x1_g": [1.0, 2.0, 3.0]})
     sensors = {"x1": Sensor("x1", 1, 2.0, 250.0)}
@@ -648,6 +786,8 @@ def test_save_refuses_what_would_not_load(tmp_path: Path, case: str) -> None:
         events.append(Event("b", 200.0, 4.0, file="a.csv", data=data))
     elif case == "sensor-name":
         sensors = {"x1": Sensor("x2", 1, 2.0, 250.0)}
+    elif case == "file-is-campaign-toml":
+        events[0].file = "campaign.toml"
     with pytest.raises(CampaignError):
         save_campaign(Campaign("c", "7in", bit, None, sensors, events), tmp_path / "c")
     # Checked before writing: nothing half-written is left behind.

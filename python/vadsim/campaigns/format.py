@@ -220,6 +220,9 @@ class Campaign:
         Folder the campaign was loaded from; not part of equality.
     description : str
         Free text (format extension).
+    allow_outside : bool
+        Whether a preset-file ``tool`` may lie outside ``root`` (set by
+        ``load_campaign(..., allow_outside=True)``); not part of equality.
     """
 
     name: str
@@ -230,6 +233,7 @@ class Campaign:
     events: list[Event]
     root: Path | None = field(default=None, compare=False)
     description: str = ""
+    allow_outside: bool = field(default=False, compare=False, repr=False)
 
     def event(self, event_id: str) -> Event:
         """Return the event with this id.

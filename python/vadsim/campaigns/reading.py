@@ -33,7 +33,8 @@ from vadsim.campaigns.format import (
     excerpt,
 )
 
-__all__ = ["TomlContext", "load_campaign", "parse_document", "time_problem", "tool_file"]
+__all__ = ["CampaignPathError", "TomlContext", "campaign_path", "load_campaign",
+           "parse_document", "time_problem", "tool_file"]
 
 _TOP_KEYS = ("name", "tool", "bit", "wob_klbf", "description", "sensors", "events")
 _SENSOR_KEYS = ("dof", "rate_hz", "range_g", "lowpass_hz")
@@ -236,19 +237,65 @@ def _split_feature(key: str, sensors: Mapping[str, Sensor]) -> tuple[str, str] |
     return None
 
 
-def tool_file(root: Path, tool: str) -> Path | None:
+class CampaignPathError(CampaignError):
+    """A path named in a campaign leaves the campaign folder or cannot be resolved.
+
+    The message says what is wrong with the path; callers that know the file, line and key
+    re-raise it with those in front.
+    """
+
+
+def campaign_path(root: Path, name: str, allow_outside: bool = False) -> Path:
+    """The real path (symlinks resolved) of ``name``, relative to the campaign folder ``root``.
+
+    Why: a campaign folder may come from anyone, and its TOML decides which files are read. So a
+    campaign may only read files inside its own folder: the real path of the file must lie
+    within the real path of ``root``, which refuses ``..``, absolute paths and symbolic links
+    that lead out, wherever they sit in the path.
+
+    Raises
+    ------
+    CampaignPathError
+        If the file lies outside ``root`` (unless ``allow_outside``) or cannot be resolved.
+        The message quotes the name, never the file's contents.
+    """
     try:
-        candidate = root / tool
+        real_root = root.resolve()
+        real = (root / name).resolve()
+    except (OSError, RuntimeError, ValueError) as exc:
+        # NUL bytes (ValueError), symlink loops (RuntimeError before Python 3.13, then OSError).
+        raise CampaignPathError(f"path {excerpt(name)} cannot be resolved: "
+                                f"{excerpt(str(exc))}") from None
+    if not allow_outside and not real.is_relative_to(real_root):
+        raise CampaignPathError(
+            f"path {excerpt(name)} leaves the campaign folder {real_root}; a campaign may only "
+            f"read files inside its folder (load_campaign(..., allow_outside=True) lifts this)")
+    return real
+
+
+def tool_file(root: Path, tool: str, allow_outside: bool = False) -> Path | None:
+    """The preset file ``tool`` names inside the campaign folder ``root`` (real path), or None
+    when there is no such file.
+
+    Raises
+    ------
+    CampaignPathError
+        If ``tool`` names a path outside ``root`` and ``allow_outside`` is false.
+    """
+    candidate = campaign_path(root, tool, allow_outside)
+    try:
         return candidate if candidate.is_file() else None
     except (OSError, ValueError):
-        # Names too long or with NUL bytes are not files; is_file() does not swallow all.
+        # Names too long are not files; is_file() does not swallow all errors.
         return None
 
 
-def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) -> Campaign:
+def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None,
+                   allow_outside: bool = False) -> Campaign:
     """Validate a parsed campaign.toml and build a Campaign without sample data.
 
     ``root`` is the folder used to resolve a preset-file tool; None skips that check.
+    ``allow_outside`` lets that file lie outside ``root`` (see :func:`campaign_path`).
     """
     _check_keys(ctx, doc, (), _TOP_KEYS)
     name = _get_str(ctx, doc, ("name",))
@@ -257,9 +304,14 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) 
     assert name is not None and tool is not None and bit is not None
     if bit not in KNOWN_BITS:
         ctx.fail(("bit",), f"unknown bit {excerpt(bit)} (allowed: {' | '.join(KNOWN_BITS)})")
-    if tool not in KNOWN_TOOLS and root is not None and tool_file(root, tool) is None:
-        ctx.fail(("tool",), f"unknown tool {excerpt(tool)}: neither a known preset "
-                 f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file in {root}")
+    if tool not in KNOWN_TOOLS and root is not None:
+        try:
+            preset_file = tool_file(root, tool, allow_outside)
+        except CampaignPathError as exc:
+            ctx.fail(("tool",), str(exc))
+        if preset_file is None:
+            ctx.fail(("tool",), f"unknown tool {excerpt(tool)}: neither a known preset "
+                     f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file in {root}")
     wob_default = _get_positive(ctx, doc, ("wob_klbf",), required=False)
     description = ""
     if "description" in doc:
@@ -270,7 +322,8 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) 
     sensors = _parse_sensors(ctx, doc)
     events = _parse_events(ctx, doc, sensors, wob_default)
     return Campaign(name=name, tool=tool, bit=bit, wob_klbf=wob_default, sensors=sensors,
-                    events=events, root=root, description=description)
+                    events=events, root=root, description=description,
+                    allow_outside=allow_outside)
 
 
 def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor]:
@@ -554,13 +607,18 @@ def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
 # Public entry points
 
 
-def load_campaign(path: str | Path) -> Campaign:
+def load_campaign(path: str | Path, *, allow_outside: bool = False) -> Campaign:
     """Read and validate a campaign folder.
 
     Parameters
     ----------
     path : str or pathlib.Path
         The campaign folder (holding ``campaign.toml``) or the TOML file itself.
+    allow_outside : bool
+        Let event CSVs and a preset-file ``tool`` lie outside the campaign folder. By default
+        a campaign may only read files inside its folder (real paths compared, so ``..``,
+        absolute paths and symbolic links leading out are refused); the flag is kept on the
+        returned campaign for :func:`~vadsim.campaigns.resolve.campaign_preset`.
 
     Returns
     -------
@@ -572,6 +630,7 @@ def load_campaign(path: str | Path) -> Campaign:
     ------
     CampaignError
         On any violation of the format; the message names the file and the line or key.
+        Also when a file the campaign names lies outside its folder (see ``allow_outside``).
 
     Warns
     -----
@@ -614,12 +673,16 @@ def load_campaign(path: str | Path) -> Campaign:
                             ) from None
 
     ctx = TomlContext(toml_path, text)
-    campaign = parse_document(doc, ctx, root)
+    campaign = parse_document(doc, ctx, root, allow_outside)
     for i, event in enumerate(campaign.events):
         if event.file is None:
             continue
         label = f" (event {excerpt(event.id)})"
-        csv_path = root / event.file
+        try:
+            # The checked real path is what is read, not the name resolved again later.
+            csv_path = campaign_path(root, event.file, allow_outside)
+        except CampaignPathError as exc:
+            ctx.fail(("events", i, "file"), str(exc), label)
         shown = (root / event.file if len(event.file) <= EXCERPT_CHARS
                  else f"{root}{os.sep}{excerpt(event.file)}")
         try:

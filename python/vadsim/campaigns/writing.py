@@ -23,7 +23,13 @@ from vadsim.campaigns.format import (
     excerpt,
     toml_str,
 )
-from vadsim.campaigns.reading import TomlContext, parse_document, time_problem, tool_file
+from vadsim.campaigns.reading import (
+    CampaignPathError,
+    TomlContext,
+    parse_document,
+    time_problem,
+    tool_file,
+)
 
 __all__ = ["save_campaign"]
 
@@ -163,14 +169,17 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
     ------
     CampaignError
         If the campaign would not load back: any rule of the format broken (checked before
-        anything is written), an event with ``file`` but no ``data``, two events writing the
-        same file.
+        anything is written), an event with ``file`` but no ``data``, two files of the same
+        name. Also when the preset-file ``tool`` lies outside ``campaign.root`` (the current
+        folder when None) and ``campaign.allow_outside`` is false.
 
     Notes
     -----
     Accelerations are written exactly (shortest float64 repr); ``time_s`` with 7 decimals
-    (see the module docstring). A tool given as a preset file relative to ``campaign.root`` is
-    copied next to the new ``campaign.toml``; one outside it is referenced by absolute path.
+    (see the module docstring). A tool given as a preset file is copied into the new folder:
+    to the same relative path when it has one inside ``campaign.root``, else (a file outside,
+    read with ``allow_outside``) under its own file name, so the saved folder is self-contained
+    and loads without ``allow_outside``.
     """
     folder = Path(folder)
     for key, sensor in campaign.sensors.items():
@@ -181,13 +190,16 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
     tool = campaign.tool
     tool_source: Path | None = None
     if tool not in KNOWN_TOOLS:
-        base = campaign.root if campaign.root is not None else Path.cwd()
-        tool_source = tool_file(base, tool)
+        base = Path(campaign.root) if campaign.root is not None else Path.cwd()
+        try:
+            tool_source = tool_file(base, tool, campaign.allow_outside)
+        except CampaignPathError as exc:
+            raise CampaignError(f"campaign {excerpt(campaign.name)}: key tool: {exc}") from None
         if tool_source is None:
             raise CampaignError(f"tool {excerpt(tool)}: neither a known preset "
                                 f"({', '.join(KNOWN_TOOLS)}) nor an existing file in {base}")
-        if not _safe_relative(tool):
-            tool, tool_source = str(tool_source.resolve()), None
+        if not (_safe_relative(tool) and tool_source.is_relative_to(base.resolve())):
+            tool = tool_source.name
 
     files: dict[str, str] = {}
     owners: dict[str, str] = {}
@@ -202,8 +214,14 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
         if name in owners:
             raise CampaignError(f"events {excerpt(owners[name])} and {excerpt(ev.id)} would "
                                 f"both be written to {excerpt(name)}")
+        if name == CAMPAIGN_FILE or (tool_source is not None and name == tool):
+            raise CampaignError(f"event {excerpt(ev.id)}: file {excerpt(name)} would overwrite "
+                                f"the campaign's {'TOML' if name == CAMPAIGN_FILE else 'tool'}")
         owners[name] = ev.id
         files[ev.id] = name
+    if tool == CAMPAIGN_FILE:
+        raise CampaignError(f"tool {excerpt(campaign.tool)}: a preset file named "
+                            f"{CAMPAIGN_FILE} would overwrite the campaign's own")
 
     doc, text = _campaign_document(campaign, tool, files)
     # Same validator as load_campaign, so nothing is written that would not load back.
