@@ -13,6 +13,7 @@ import math
 import os
 import re
 import tempfile
+import tomllib
 import warnings
 from collections.abc import Callable
 from datetime import timedelta
@@ -736,6 +737,42 @@ def test_round_trip(tmp_path: Path, seed: int) -> None:
             for name, sensor in loaded.sensors.items():
                 expected = np.abs(ev.data[f"{name}_g"].to_numpy()) >= sensor.range_g
                 np.testing.assert_array_equal(ev.clipped[name], expected)
+
+
+def test_saved_toml_layout_and_content(tmp_path: Path) -> None:
+    original = _random_campaign(5)
+    text = (save_campaign(original, tmp_path / "c") / "campaign.toml").read_text()
+    lines = text.split("\n")
+    assert lines[0].startswith("# Field-test campaign")
+    # One table per sensor and per event, so that errors in an edited copy get line numbers.
+    assert [x for x in lines if x.startswith("[")] == (
+        [f"[sensors.{name}]" for name in original.sensors] + ["[[events]]"] * len(original.events))
+    doc = tomllib.loads(text)
+    assert (doc["name"], doc["tool"], doc["bit"]) == (original.name, original.tool, original.bit)
+    assert list(doc["sensors"]) == list(original.sensors)
+    assert [e["id"] for e in doc["events"]] == [e.id for e in original.events]
+    assert [e.get("features", {}) for e in doc["events"]] == [e.features for e in original.events]
+
+
+AWKWARD = ['quote " and \'', "back\\slash \\u0041 \\n", "tab\tnewline\ncr\r crlf\r\n",
+           "nul \x00 del \x7f esc \x1b", '"""triple"""', "\'\'\'", "# not a comment",
+           "[[events]]", "  padded  ", "key = 1", "\u00b5\u00b0\u043a\u043b\u044e\u0447 \U0001f600",
+           "\u2028 \ufeff", "x" * 300]
+
+
+def test_round_trip_awkward_text(tmp_path: Path) -> None:
+    data = pd.DataFrame({"time_s": [0.0, 0.5, 1.0], "x1_g": [1.0, -2.0, 3.0]})
+    reference: dict[str, object] = {t: t for t in AWKWARD}
+    reference |= {"": 1, "a.b": True, "x y": -0.0, "inf": math.inf, "big": 2**63 - 1}
+    events = [Event("plain", 100.0, 4.0, file="plain.csv", data=data, reference=reference)]
+    events += [Event(f"id {i} {t}", 100.0 + i, 4.0, features={"x1_peak_mean_g": 1.0},
+                     reference={"text": t}) for i, t in enumerate(AWKWARD)]
+    c = Campaign("\n".join(AWKWARD), "7in", "RC", None, {"x1": Sensor("x1", 1, 2.0, 250.0)},
+                 events, description="".join(AWKWARD))
+    loaded = load_campaign(save_campaign(c, tmp_path / "c"))
+    assert loaded == c
+    assert list(loaded.events[0].reference) == list(reference)
+    assert math.copysign(1.0, loaded.events[0].reference["x y"]) == -1.0
 
 
 def test_round_trip_off_grid_time_is_idempotent(tmp_path: Path) -> None:

@@ -33,7 +33,6 @@ first save and is stable afterwards.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -51,8 +50,6 @@ __all__ = [
     "Event",
     "Campaign",
     "excerpt",
-    "BARE_KEY_RE",
-    "toml_str",
 ]
 
 #: Tool presets the project knows by name. Kept as the single source of truth here until the
@@ -247,22 +244,3 @@ class Campaign:
             if ev.id == event_id:
                 return ev
         raise KeyError(event_id)
-
-
-BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
-"""A TOML bare key: written as is, anything else is quoted."""
-
-
-def toml_str(text: str) -> str:
-    out = ['"']
-    escapes = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
-               "\r": "\\r"}
-    for ch in text:
-        if ch in escapes:
-            out.append(escapes[ch])
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    out.append('"')
-    return "".join(out)

@@ -12,16 +12,15 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import tomli_w
 
 from vadsim.campaigns.format import (
-    BARE_KEY_RE,
     CAMPAIGN_FILE,
     KNOWN_TOOLS,
     Campaign,
     CampaignError,
     Sensor,
     excerpt,
-    toml_str,
 )
 from vadsim.campaigns.reading import (
     CampaignPathError,
@@ -33,29 +32,8 @@ from vadsim.campaigns.reading import (
 
 __all__ = ["save_campaign"]
 
-
-def _toml_value(value: Any) -> str:
-    # Only the types a campaign holds; TOML spells bool lowercase and float specials bare.
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return toml_str(value)
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
-        return f"{{ {items} }}" if items else "{}"
-    raise CampaignError(f"cannot write a {type(value).__name__} value to TOML: {excerpt(value)}")
-
-
-def _toml_key(key: str) -> str:
-    return key if BARE_KEY_RE.fullmatch(key) else toml_str(key)
+#: First line of every campaign.toml written here (tomli-w writes no comments).
+HEADER_COMMENT = "# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."
 
 
 def _as_number(value: Any) -> int | float:
@@ -65,9 +43,8 @@ def _as_number(value: Any) -> int | float:
     return value
 
 
-def _campaign_document(campaign: Campaign, tool: str,
-                       files: Mapping[str, str]) -> tuple[dict[str, Any], str]:
-    """The campaign as a TOML-shaped dict (for validation) and as TOML text."""
+def _campaign_document(campaign: Campaign, tool: str, files: Mapping[str, str]) -> dict[str, Any]:
+    """The campaign as a TOML-shaped dict, as :func:`tomllib.loads` would return it."""
     doc: dict[str, Any] = {"name": campaign.name, "tool": tool, "bit": campaign.bit}
     if campaign.wob_klbf is not None:
         doc["wob_klbf"] = float(_as_number(campaign.wob_klbf))
@@ -93,18 +70,34 @@ def _campaign_document(campaign: Campaign, tool: str,
         if ev.reference:
             spec["reference"] = {k: _as_number(v) for k, v in ev.reference.items()}
         doc["events"].append(spec)
+    return doc
 
-    lines = ["# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."]
-    for key in ("name", "tool", "bit", "wob_klbf", "description"):
-        if key in doc:
-            lines.append(f"{key} = {_toml_value(doc[key])}")
-    for key, spec in doc["sensors"].items():
-        lines += ["", f"[sensors.{_toml_key(key)}]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
+
+def _toml_pairs(table: Mapping[str, Any]) -> list[str]:
+    """``key = value`` for each entry of a table of plain values, as tomli-w spells them."""
+    return [tomli_w.dumps({key: value}).rstrip("\n") for key, value in table.items()]
+
+
+def _toml_text(doc: Mapping[str, Any]) -> str:
+    """The document as TOML, laid out as RECORDINGS.md shows it.
+
+    tomli-w does all the quoting and escaping; only the layout is chosen here: one
+    ``[sensors.<name>]`` table per sensor, one ``[[events]]`` table per event (tomli-w would
+    fold short events into one inline array, where an error could no longer be given a line)
+    and each event's ``features`` and ``reference`` as one-line inline tables, joined from
+    tomli-w's pairs.
+    """
+    top = {k: v for k, v in doc.items() if k not in ("sensors", "events")}
+    blocks = [HEADER_COMMENT + "\n" + tomli_w.dumps(top)]
+    blocks += [tomli_w.dumps({"sensors": {key: spec}}) for key, spec in doc["sensors"].items()]
     for spec in doc["events"]:
-        lines += ["", "[[events]]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
-    return doc, "\n".join(lines) + "\n"
+        lines = ["[[events]]"]
+        lines += _toml_pairs({k: v for k, v in spec.items() if not isinstance(v, Mapping)})
+        for key, table in spec.items():
+            if isinstance(table, Mapping):
+                lines.append(f"{key} = {{ {', '.join(_toml_pairs(table))} }}")
+        blocks.append("\n".join(lines) + "\n")
+    return "\n".join(blocks)
 
 
 def _safe_relative(name: str) -> bool:
@@ -179,7 +172,7 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
     (see the module docstring). A tool given as a preset file is copied into the new folder:
     to the same relative path when it has one inside ``campaign.root``, else (a file outside,
     read with ``allow_outside``) under its own file name, so the saved folder is self-contained
-    and loads without ``allow_outside``.
+    and loads without ``allow_outside``. ``campaign.toml`` is written with tomli-w.
     """
     folder = Path(folder)
     for key, sensor in campaign.sensors.items():
@@ -223,9 +216,14 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
         raise CampaignError(f"tool {excerpt(campaign.tool)}: a preset file named "
                             f"{CAMPAIGN_FILE} would overwrite the campaign's own")
 
-    doc, text = _campaign_document(campaign, tool, files)
+    doc = _campaign_document(campaign, tool, files)
     # Same validator as load_campaign, so nothing is written that would not load back.
     parse_document(doc, TomlContext(f"campaign {excerpt(campaign.name)}", None), None)
+    try:
+        text = _toml_text(doc)
+    except (TypeError, ValueError) as exc:  # a value tomli-w cannot write
+        raise CampaignError(f"campaign {excerpt(campaign.name)}: cannot write TOML: "
+                            f"{excerpt(str(exc))}") from None
 
     # All samples are checked before the first byte is written: no half-written folder.
     for ev in campaign.events:
