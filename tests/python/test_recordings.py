@@ -7,10 +7,13 @@ that arbitrary damage yields a CampaignError and nothing else.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import math
+import os
 import re
 import tempfile
+import tomllib
 import warnings
 from collections.abc import Callable
 from datetime import timedelta
@@ -23,6 +26,7 @@ import vadsim
 import vadsim.recordings as rec
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from vadsim.campaigns.format import excerpt
 from vadsim.recordings import (
     KNOWN_TOOLS,
     Campaign,
@@ -30,6 +34,8 @@ from vadsim.recordings import (
     ClippedSamplesWarning,
     Event,
     Sensor,
+    campaign_preset,
+    load_any_campaign,
     load_campaign,
     save_campaign,
     thesis_campaigns,
@@ -320,6 +326,34 @@ BAD_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
      ["e01.csv", "line 3", "1024 Hz", "means 512.0"]),
     ("csv-second-file", _edit("e03.csv", lambda t: t.replace("\n", "\nbad,1,2\n", 1)),
      ["e03.csv", "line 2", "time_s", "'bad'"]),
+    # Digits and blanks of other scripts: Python's float() reads '١٢٣' as 123, the format
+    # holds ASCII decimals only.
+    ("csv-arabic-indic-digits", _csv_cell(7, 1, "\u0661\u0662\u0663"),
+     ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+    ("csv-fullwidth-digits", _csv_cell(7, 2, "\uff11.\uff15"),
+     ["e01.csv", "line 7", "x5_g", "non-numeric"]),
+    ("csv-devanagari-time", _csv_cell(7, 0, "\u0966.\u0966\u0966\u096b"),
+     ["e01.csv", "line 7", "time_s", "non-numeric"]),
+    ("csv-no-break-space", _csv_cell(7, 1, "\u00a01.5"),
+     ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+    # Booleans are not numbers, although Python's bool is an int.
+    ("flow-bool", _toml_sub("flow_gpm = 200.0", "flow_gpm = true"),
+     ["line 19", "events[0].flow_gpm", "'e01'", "number", "boolean"]),
+    ("event-wob-bool", _toml_sub("wob_klbf = 5.0", "wob_klbf = true"),
+     ["line 25", "events[1].wob_klbf", "number", "boolean"]),
+    ("campaign-wob-bool", _toml_sub("wob_klbf = 4.0", "wob_klbf = false"),
+     ["line 4", "key wob_klbf", "number", "boolean"]),
+    ("rate-bool", _toml_sub("rate_hz = 1024", "rate_hz = true"),
+     ["line 8", "sensors.x1.rate_hz", "number", "boolean"]),
+    ("range-bool", _toml_sub("range_g = 250", "range_g = true"),
+     ["line 9", "sensors.x1.range_g", "number", "boolean"]),
+    ("lowpass-bool", _toml_sub("lowpass_hz = 400", "lowpass_hz = true"),
+     ["line 10", "sensors.x1.lowpass_hz", "number", "boolean"]),
+    ("feature-bool", _toml_sub("x1_impact_hz = 24.0", "x1_impact_hz = true"),
+     ["line 26", "events[1].features.x1_impact_hz", "number", "boolean"]),
+    # Integers beyond Python's digit limit for int(str): tomllib raises a plain ValueError.
+    ("rate-int-beyond-digit-limit", _toml_sub("rate_hz = 1024", "rate_hz = " + "9" * 5000),
+     ["campaign.toml"]),
 ]
 
 
@@ -400,6 +434,210 @@ def test_tool_preset_file(valid: Path, tmp_path: Path) -> None:
 def test_known_tools_constant() -> None:
     assert {"7in", "9.5in"} <= set(KNOWN_TOOLS)
     assert rec.KNOWN_BITS == ("CDE", "RC", "PDC")
+
+
+# --------------------------------------------------------------------------------------------
+# A campaign reads only files inside its own folder (unless allow_outside=True)
+
+SECRET = "SECRET_VALUE_4f1c"
+PRESET_TOML = 'name = "outside preset"\nbase = "7in-rc"\n'
+
+
+@pytest.fixture
+def outside(tmp_path: Path) -> Path:
+    """A folder next to the campaign: a valid event CSV, a file with a secret, a preset."""
+    out = tmp_path / "outside"
+    out.mkdir()
+    (out / "e01.csv").write_text(_csv_text(101))
+    (out / "secret.csv").write_text(f"{SECRET},x1_g,x5_g\n")
+    (out / "preset.toml").write_text(PRESET_TOML)
+    return out
+
+
+def _point_e01_outside(folder: Path, outside: Path, how: str) -> None:
+    """Make event e01 of the campaign in ``folder`` name outside/e01.csv in one way."""
+    if how == "dotdot":
+        name = "../outside/e01.csv"
+    elif how == "dotdot-via-subfolder":
+        (folder / "sub").mkdir()
+        name = "sub/../../outside/e01.csv"
+    elif how == "absolute":
+        name = str(outside / "e01.csv")
+    elif how == "symlinked-file":
+        (folder / "link.csv").symlink_to(outside / "e01.csv")
+        name = "link.csv"
+    elif how == "symlinked-folder":
+        (folder / "data").symlink_to(outside, target_is_directory=True)
+        name = "data/e01.csv"
+    else:
+        raise AssertionError(how)
+    _toml_sub('file = "e01.csv"', f"file = {name!r}")(folder)
+
+
+@pytest.mark.parametrize("how", ["dotdot", "dotdot-via-subfolder", "absolute", "symlinked-file",
+                                 "symlinked-folder"])
+def test_event_file_outside_the_folder_is_refused(valid: Path, outside: Path, how: str) -> None:
+    _point_e01_outside(valid, outside, how)
+    with pytest.raises(CampaignError) as info:
+        load_campaign(valid)
+    message = str(info.value)
+    for fragment in ["campaign.toml", "line 20", "events[0].file", "'e01'",
+                     "leaves the campaign folder"]:
+        assert fragment in message, f"{fragment!r} not in {message!r}"
+    # With the explicit flag the same file is read, and it is the outside one.
+    c = load_campaign(valid, allow_outside=True)
+    expected = pd.read_csv(outside / "e01.csv").to_numpy()
+    np.testing.assert_array_equal(c.events[0].data.to_numpy(), expected)
+    assert c.allow_outside
+
+
+@pytest.mark.parametrize("name", ["../outside/secret.csv", "/proc/self/environ"])
+def test_refusal_does_not_print_the_file(valid: Path, outside: Path, name: str) -> None:
+    if not Path(name).is_absolute():
+        assert (valid / name).is_file()
+    elif not Path(name).exists():
+        pytest.skip(f"{name} does not exist here")
+    _toml_sub('file = "e01.csv"', f"file = {name!r}")(valid)
+    with pytest.raises(CampaignError, match="leaves the campaign folder") as info:
+        load_campaign(valid)
+    message = str(info.value)
+    assert SECRET not in message
+    assert not [k for k, v in os.environ.items() if len(v) > 3 and f"{k}={v}" in message]
+    assert len(message) < 500 + len(str(valid))
+
+
+def test_symlink_inside_the_folder_is_fine(valid: Path) -> None:
+    (valid / "sub").mkdir()
+    (valid / "sub" / "alias.csv").symlink_to(valid / "e01.csv")
+    _toml_sub('file = "e01.csv"', 'file = "sub/alias.csv"')(valid)
+    c = load_campaign(valid)
+    assert not c.allow_outside
+    expected = pd.read_csv(valid / "e01.csv").to_numpy()
+    np.testing.assert_array_equal(c.events[0].data.to_numpy(), expected)
+
+
+def _point_tool_outside(folder: Path, outside: Path, how: str) -> None:
+    if how == "absolute":
+        name = str(outside / "preset.toml")
+    elif how == "dotdot":
+        name = "../outside/preset.toml"
+    elif how == "symlinked-file":
+        (folder / "mytool.toml").symlink_to(outside / "preset.toml")
+        name = "mytool.toml"
+    else:
+        raise AssertionError(how)
+    _toml_sub('tool = "7in"', f"tool = {name!r}")(folder)
+
+
+@pytest.mark.parametrize("how", ["absolute", "dotdot", "symlinked-file"])
+def test_tool_file_outside_the_folder_is_refused(valid: Path, outside: Path, how: str,
+                                                 tmp_path: Path) -> None:
+    _point_tool_outside(valid, outside, how)
+    for load in (load_campaign, load_any_campaign):
+        with pytest.raises(CampaignError) as info:
+            load(valid)
+        message = str(info.value)
+        for fragment in ["campaign.toml", "line 2", "key tool", "leaves the campaign folder"]:
+            assert fragment in message, f"{fragment!r} not in {message!r}"
+
+    c = load_any_campaign(valid, allow_outside=True)
+    assert c.allow_outside and campaign_preset(c).name == "outside preset"
+    assert campaign_preset(c).bit == "RC"
+    # campaign_preset checks again: the flag travels with the campaign, not with the folder.
+    with pytest.raises(CampaignError, match="key tool.*leaves the campaign folder"):
+        campaign_preset(dataclasses.replace(c, allow_outside=False))
+    # Saving copies the preset in: the copy is self-contained and loads without the flag.
+    with pytest.raises(CampaignError, match="key tool.*leaves the campaign folder"):
+        save_campaign(dataclasses.replace(c, allow_outside=False), tmp_path / "refused")
+    assert not (tmp_path / "refused").exists()
+    copy = load_campaign(save_campaign(c, tmp_path / "copy"))
+    assert copy.tool == (outside / "preset.toml").name
+    assert (tmp_path / "copy" / copy.tool).read_text() == PRESET_TOML
+    assert campaign_preset(copy).name == "outside preset"
+    assert dataclasses.replace(copy, tool=c.tool) == c
+
+
+def test_campaign_preset_without_root_stays_in_the_current_folder(
+        valid: Path, outside: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(valid)
+    c = dataclasses.replace(load_campaign(valid), root=None, tool=str(outside / "preset.toml"))
+    with pytest.raises(CampaignError, match="key tool.*leaves the campaign folder"):
+        campaign_preset(c)
+    assert campaign_preset(dataclasses.replace(c, allow_outside=True)).name == "outside preset"
+    (valid / "here.toml").write_text(PRESET_TOML)
+    assert campaign_preset(dataclasses.replace(c, tool="here.toml")).name == "outside preset"
+    assert campaign_preset(dataclasses.replace(c, tool="7in")).name == "7in-cde"
+
+
+# --------------------------------------------------------------------------------------------
+# Error messages quote at most ~80 characters of a file or a TOML value
+
+HUGE = 200_000
+
+
+def test_excerpt() -> None:
+    assert excerpt("abc") == "'abc'"
+    assert excerpt("a" * 80) == repr("a" * 80)
+    assert excerpt("a" * 81) == "'" + "a" * 80 + "...' (81 characters)"
+    assert excerpt("it's" * 100).endswith('..." (400 characters)')
+    assert excerpt(12) == "12" and excerpt([1] * 5) == "[1, 1, 1, 1, 1]"
+    assert excerpt([1] * 1000) == "[" + "1, " * 26 + "1... (3000 characters)"
+    assert len(excerpt("\x00" * 1000)) < 400
+
+
+LONG_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
+    ("csv-header-column", _csv_line(1, "time_s,x1_g," + "y" * HUGE),
+     ["e01.csv", "line 1", "unexpected column", f"({HUGE} characters)"]),
+    ("csv-first-column", _csv_line(1, "z" * HUGE + ",x1_g,x5_g"),
+     ["e01.csv", "line 1", "time_s", f"({HUGE} characters)"]),
+    ("csv-token", _csv_cell(7, 1, "q" * HUGE), ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+    # Also a long run of digits that is no number: the number check must fail quickly.
+    ("csv-digits", _csv_cell(7, 1, "1" * HUGE + "x"), ["e01.csv", "line 7", "x1_g"]),
+    ("toml-bit", _toml_sub('bit = "CDE"', 'bit = "' + "X" * HUGE + '"'),
+     ["campaign.toml", "line 3", "key bit", f"({HUGE} characters)"]),
+    ("toml-name-array", _toml_sub('name = "base campaign"', "name = [" + "1," * HUGE + "]"),
+     ["campaign.toml", "line 1", "key name", "string", "characters)"]),
+    ("toml-key", _toml_sub('bit = "CDE"', 'bit = "CDE"\n' + "k" * HUGE + " = 1"),
+     ["campaign.toml", "unknown key", f"({HUGE} characters)"]),
+    ("toml-event-id", _toml_sub('id = "e01"\nflow_gpm = 200.0',
+                                'id = "' + "e" * HUGE + '"\nflow_gpm = 0'),
+     ["campaign.toml", "line 19", "events[0].flow_gpm", f"({HUGE} characters)"]),
+    ("toml-number", _toml_sub("rate_hz = 1024", "rate_hz = " + "9" * 4000),
+     ["campaign.toml", "line 8", "sensors.x1.rate_hz", "range", "(4000 characters)"]),
+    ("toml-file", _toml_sub('file = "e01.csv"', 'file = "' + "f" * HUGE + '"'),
+     ["campaign.toml", "line 20", "events[0].file", f"({HUGE} characters)"]),
+    ("toml-tool", _toml_sub('tool = "7in"', 'tool = "' + "t" * HUGE + '"'),
+     ["campaign.toml", "line 2", "key tool", f"({HUGE} characters)"]),
+    # A header with a long run of blanks: the scan for line numbers must stay linear.
+    ("toml-sensor-name", _toml_sub("[sensors.x5]", '[sensors."x' + " " * HUGE + '5"]'),
+     ["campaign.toml", "line 12", "sensors", f"({HUGE + 2} characters)"]),
+]
+
+
+@pytest.mark.parametrize(("damage", "fragments"), [(d, f) for _, d, f in LONG_CASES],
+                         ids=[c[0] for c in LONG_CASES])
+def test_error_messages_quote_little(valid: Path, damage: Callable[[Path], None],
+                                     fragments: list[str]) -> None:
+    damage(valid)
+    with pytest.raises(CampaignError) as info:
+        load_campaign(valid)
+    message = str(info.value)
+    for fragment in fragments:
+        assert fragment in message, f"{fragment!r} not in {message[:2000]!r}"
+    # The folder's path appears at most twice; everything else is short.
+    assert len(message) < 600 + 2 * len(str(valid)), message[:2000]
+
+
+def test_header_scan_finds_lines_of_spaced_and_quoted_headers(valid: Path) -> None:
+    text = (valid / "campaign.toml").read_text()
+    text = text.replace("[sensors.x5]", "  [ sensors . 'x5' ]  # the motor sensor")
+    text = text.replace("[[events]]", '[[ "events" ]] # one event', 3)
+    (valid / "campaign.toml").write_text(text.replace("dof = 5", "dof = 9"))
+    with pytest.raises(CampaignError, match=r"line 13: key sensors\.x5\.dof"):
+        load_campaign(valid)
+    (valid / "campaign.toml").write_text(text.replace("flow_gpm = 300.0", "flow_gpm = -3"))
+    with pytest.raises(CampaignError, match=r"line 31: key events\[2\]\.flow_gpm"):
+        load_campaign(valid)
 
 
 # --------------------------------------------------------------------------------------------
@@ -501,6 +739,42 @@ def test_round_trip(tmp_path: Path, seed: int) -> None:
                 np.testing.assert_array_equal(ev.clipped[name], expected)
 
 
+def test_saved_toml_layout_and_content(tmp_path: Path) -> None:
+    original = _random_campaign(5)
+    text = (save_campaign(original, tmp_path / "c") / "campaign.toml").read_text()
+    lines = text.split("\n")
+    assert lines[0].startswith("# Field-test campaign")
+    # One table per sensor and per event, so that errors in an edited copy get line numbers.
+    assert [x for x in lines if x.startswith("[")] == (
+        [f"[sensors.{name}]" for name in original.sensors] + ["[[events]]"] * len(original.events))
+    doc = tomllib.loads(text)
+    assert (doc["name"], doc["tool"], doc["bit"]) == (original.name, original.tool, original.bit)
+    assert list(doc["sensors"]) == list(original.sensors)
+    assert [e["id"] for e in doc["events"]] == [e.id for e in original.events]
+    assert [e.get("features", {}) for e in doc["events"]] == [e.features for e in original.events]
+
+
+AWKWARD = ['quote " and \'', "back\\slash \\u0041 \\n", "tab\tnewline\ncr\r crlf\r\n",
+           "nul \x00 del \x7f esc \x1b", '"""triple"""', "\'\'\'", "# not a comment",
+           "[[events]]", "  padded  ", "key = 1", "\u00b5\u00b0\u043a\u043b\u044e\u0447 \U0001f600",
+           "\u2028 \ufeff", "x" * 300]
+
+
+def test_round_trip_awkward_text(tmp_path: Path) -> None:
+    data = pd.DataFrame({"time_s": [0.0, 0.5, 1.0], "x1_g": [1.0, -2.0, 3.0]})
+    reference: dict[str, object] = {t: t for t in AWKWARD}
+    reference |= {"": 1, "a.b": True, "x y": -0.0, "inf": math.inf, "big": 2**63 - 1}
+    events = [Event("plain", 100.0, 4.0, file="plain.csv", data=data, reference=reference)]
+    events += [Event(f"id {i} {t}", 100.0 + i, 4.0, features={"x1_peak_mean_g": 1.0},
+                     reference={"text": t}) for i, t in enumerate(AWKWARD)]
+    c = Campaign("\n".join(AWKWARD), "7in", "RC", None, {"x1": Sensor("x1", 1, 2.0, 250.0)},
+                 events, description="".join(AWKWARD))
+    loaded = load_campaign(save_campaign(c, tmp_path / "c"))
+    assert loaded == c
+    assert list(loaded.events[0].reference) == list(reference)
+    assert math.copysign(1.0, loaded.events[0].reference["x y"]) == -1.0
+
+
 def test_round_trip_off_grid_time_is_idempotent(tmp_path: Path) -> None:
     t = 0.123456789 + np.arange(3000) / 1024
     data = pd.DataFrame({"time_s": t, "x1_g": np.sin(t) * 1e-3 / 7})
@@ -526,7 +800,8 @@ def test_save_names_files_of_events_without_one(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("case", ["bit", "file-without-data", "no-file-no-features",
-                                  "bad-columns", "nan", "time", "same-file", "sensor-name"])
+                                  "bad-columns", "nan", "time", "same-file", "sensor-name",
+                                  "file-is-campaign-toml"])
 def test_save_refuses_what_would_not_load(tmp_path: Path, case: str) -> None:
     data = pd.DataFrame({"time_s": [0.0, 0.5, 1.0], "x1_g": [1.0, 2.0, 3.0]})
     sensors = {"x1": Sensor("x1", 1, 2.0, 250.0)}
@@ -548,6 +823,8 @@ def test_save_refuses_what_would_not_load(tmp_path: Path, case: str) -> None:
         events.append(Event("b", 200.0, 4.0, file="a.csv", data=data))
     elif case == "sensor-name":
         sensors = {"x1": Sensor("x2", 1, 2.0, 250.0)}
+    elif case == "file-is-campaign-toml":
+        events[0].file = "campaign.toml"
     with pytest.raises(CampaignError):
         save_campaign(Campaign("c", "7in", bit, None, sensors, events), tmp_path / "c")
     # Checked before writing: nothing half-written is left behind.

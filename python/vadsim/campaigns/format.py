@@ -33,7 +33,6 @@ first save and is stable afterwards.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,8 +49,7 @@ __all__ = [
     "Sensor",
     "Event",
     "Campaign",
-    "BARE_KEY_RE",
-    "toml_str",
+    "excerpt",
 ]
 
 #: Tool presets the project knows by name. Kept as the single source of truth here until the
@@ -74,7 +72,29 @@ TIME_RESOLUTION_S = 1e-7
 #: Name of the campaign description file inside a campaign folder.
 CAMPAIGN_FILE = "campaign.toml"
 
+#: How much of a file's text or a TOML value an error message quotes at most (characters).
+EXCERPT_CHARS = 80
 
+
+def excerpt(value: object, limit: int = EXCERPT_CHARS) -> str:
+    """``value`` quoted for an error message, cut to ``limit`` characters when longer.
+
+    A string is shown as its repr, ``'abc...' (12345 characters)`` when cut; anything else as
+    its repr, cut the same way. Error messages quote field files and TOML values through this
+    one helper so that a 200 MB header line never becomes a 200 MB message.
+    """
+    if isinstance(value, str):
+        if len(value) <= limit:
+            return repr(value)
+        quoted = repr(value[:limit])
+        return f"{quoted[:-1]}...{quoted[-1]} ({len(value)} characters)"
+    try:
+        text = repr(value)
+    except ValueError:  # ints beyond sys.get_int_max_str_digits() have no repr
+        return f"<{type(value).__name__} too large to print>"
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text)} characters)"
 
 
 class CampaignError(ValueError):
@@ -197,6 +217,9 @@ class Campaign:
         Folder the campaign was loaded from; not part of equality.
     description : str
         Free text (format extension).
+    allow_outside : bool
+        Whether a preset-file ``tool`` may lie outside ``root`` (set by
+        ``load_campaign(..., allow_outside=True)``); not part of equality.
     """
 
     name: str
@@ -207,6 +230,7 @@ class Campaign:
     events: list[Event]
     root: Path | None = field(default=None, compare=False)
     description: str = ""
+    allow_outside: bool = field(default=False, compare=False, repr=False)
 
     def event(self, event_id: str) -> Event:
         """Return the event with this id.
@@ -220,22 +244,3 @@ class Campaign:
             if ev.id == event_id:
                 return ev
         raise KeyError(event_id)
-
-
-BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
-"""A TOML bare key: written as is, anything else is quoted."""
-
-
-def toml_str(text: str) -> str:
-    out = ['"']
-    escapes = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
-               "\r": "\\r"}
-    for ch in text:
-        if ch in escapes:
-            out.append(escapes[ch])
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    out.append('"')
-    return "".join(out)

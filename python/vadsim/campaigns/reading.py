@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 import re
 import tomllib
 import warnings
@@ -17,8 +18,8 @@ import numpy as np
 import pandas as pd
 
 from vadsim.campaigns.format import (
-    BARE_KEY_RE,
     CAMPAIGN_FILE,
+    EXCERPT_CHARS,
     FEATURES,
     KNOWN_BITS,
     KNOWN_TOOLS,
@@ -29,18 +30,23 @@ from vadsim.campaigns.format import (
     ClippedSamplesWarning,
     Event,
     Sensor,
-    toml_str,
+    excerpt,
 )
 
-__all__ = ["TomlContext", "load_campaign", "parse_document", "time_problem", "tool_file"]
+__all__ = ["CampaignPathError", "TomlContext", "campaign_path", "load_campaign",
+           "parse_document", "time_problem", "tool_file"]
 
 _TOP_KEYS = ("name", "tool", "bit", "wob_klbf", "description", "sensors", "events")
 _SENSOR_KEYS = ("dof", "rate_hz", "range_g", "lowpass_hz")
 _EVENT_KEYS = ("id", "flow_gpm", "wob_klbf", "file", "features", "reference")
-# Sensor names become CSV column prefixes and TOML keys; restricting them to TOML's bare-key
-# alphabet keeps both unambiguous without quoting rules.
-_SENSOR_NAME_RE = re.compile(r"[A-Za-z0-9_-]+")
-_NUMBER_RE = re.compile(r"\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*")
+# TOML's bare-key alphabet. Sensor names become CSV column prefixes and TOML keys; restricting
+# them to it keeps both unambiguous without quoting rules.
+_BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
+# A decimal number as the CSV cells hold it. ASCII only: in Python `\d` and `\s` also match
+# other scripts' digits and spaces, and float() would read '١٢٣' as 123. Written without
+# overlapping repeats so a long token fails in linear time.
+_NUMBER_RE = re.compile(r"\s*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*",
+                        re.ASCII)
 # Tokens pandas reads as missing values; named as such rather than as "non-numeric".
 _NA_TOKENS = frozenset(
     {"", "nan", "+nan", "-nan", "na", "n/a", "null", "none", "#n/a", "#na", "<na>",
@@ -56,23 +62,38 @@ _LINE_SPLIT_BYTES_RE = re.compile(rb"\r\n|\r|\n")
 # usual layout ([sensors.x], [[events]]) and gives up (key only) on anything fancier.
 
 
-class _TomlLines:
-    _ARRAY_HDR = re.compile(r"\s*\[\[\s*([^\[\]]+?)\s*\]\]\s*(?:#.*)?$")
-    _TABLE_HDR = re.compile(r"\s*\[\s*([^\[\]]+?)\s*\]\s*(?:#.*)?$")
+def _table_header(line: str) -> tuple[str, str] | None:
+    """``("array", name)`` for a ``[[name]]`` line, ``("table", name)`` for ``[name]``, else
+    None; the name with blanks around dots and quotes removed (``sensors.x1``).
 
+    Plain string scanning, linear in the line: the regular expressions this replaces took
+    quadratic time on a long run of blanks inside a header.
+    """
+    text = line.strip()
+    kind, opening, closing = (("array", "[[", "]]") if text.startswith("[[")
+                              else ("table", "[", "]"))
+    if not text.startswith(opening):
+        return None
+    end = text.find("]", len(opening))
+    if end < 0 or not text.startswith(closing, end):
+        return None
+    name = text[len(opening):end]
+    rest = text[end + len(closing):].lstrip()
+    if "[" in name or not name.strip() or (rest and not rest.startswith("#")):
+        return None
+    parts = (part.strip() for part in name.strip().split("."))
+    return kind, ".".join(parts).replace('"', "").replace("'", "")
+
+
+class _TomlLines:
     def __init__(self, text: str) -> None:
         self.lines = text.split("\n")
         # (first line number, kind, normalised name); line numbers are 1-based.
         self.headers: list[tuple[int, str, str]] = []
         for i, line in enumerate(self.lines, start=1):
-            m = self._ARRAY_HDR.match(line)
-            kind = "array"
-            if m is None:
-                m = self._TABLE_HDR.match(line)
-                kind = "table"
-            if m is not None:
-                name = re.sub(r"\s*\.\s*", ".", m.group(1)).replace('"', "").replace("'", "")
-                self.headers.append((i, kind, name))
+            header = _table_header(line)
+            if header is not None:
+                self.headers.append((i, *header))
 
     def _segment(self, kind: str, name: str, nth: int = 0) -> tuple[int, int] | None:
         seen = 0
@@ -131,7 +152,8 @@ def _format_key(path: tuple[str | int, ...]) -> str:
         if isinstance(part, int):
             out += f"[{part}]"
         else:
-            text = part if BARE_KEY_RE.fullmatch(part) else toml_str(part)
+            bare = len(part) <= EXCERPT_CHARS and _BARE_KEY_RE.fullmatch(part)
+            text = part if bare else excerpt(part)
             out += f".{text}" if out else text
     return out
 
@@ -164,7 +186,7 @@ def _get_str(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, 
         return None
     value = table[key]
     if not isinstance(value, str):
-        ctx.fail(path, f"must be a string, got {_type_name(value)} {value!r}", label)
+        ctx.fail(path, f"must be a string, got {_type_name(value)} {excerpt(value)}", label)
     if not value.strip():
         ctx.fail(path, "must not be empty", label)
     return value
@@ -180,13 +202,13 @@ def _get_number(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | in
         return None
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, int | float):
-        ctx.fail(path, f"must be a number, got {_type_name(value)} {value!r}", label)
+        ctx.fail(path, f"must be a number, got {_type_name(value)} {excerpt(value)}", label)
     try:
         number = float(value)
     except OverflowError:
-        ctx.fail(path, f"number out of range: {value!r}", label)
+        ctx.fail(path, f"number out of range: {excerpt(value)}", label)
     if not math.isfinite(number):
-        ctx.fail(path, f"must be a finite number, got {value!r}", label)
+        ctx.fail(path, f"must be a finite number, got {excerpt(value)}", label)
     return number
 
 
@@ -194,7 +216,7 @@ def _get_positive(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | 
                   required: bool = True, label: str = "") -> float | None:
     number = _get_number(ctx, table, path, required, label)
     if number is not None and number <= 0:
-        ctx.fail(path, f"must be > 0, got {table[str(path[-1])]!r}", label)
+        ctx.fail(path, f"must be > 0, got {excerpt(table[str(path[-1])])}", label)
     return number
 
 
@@ -215,19 +237,65 @@ def _split_feature(key: str, sensors: Mapping[str, Sensor]) -> tuple[str, str] |
     return None
 
 
-def tool_file(root: Path, tool: str) -> Path | None:
+class CampaignPathError(CampaignError):
+    """A path named in a campaign leaves the campaign folder or cannot be resolved.
+
+    The message says what is wrong with the path; callers that know the file, line and key
+    re-raise it with those in front.
+    """
+
+
+def campaign_path(root: Path, name: str, allow_outside: bool = False) -> Path:
+    """The real path (symlinks resolved) of ``name``, relative to the campaign folder ``root``.
+
+    Why: a campaign folder may come from anyone, and its TOML decides which files are read. So a
+    campaign may only read files inside its own folder: the real path of the file must lie
+    within the real path of ``root``, which refuses ``..``, absolute paths and symbolic links
+    that lead out, wherever they sit in the path.
+
+    Raises
+    ------
+    CampaignPathError
+        If the file lies outside ``root`` (unless ``allow_outside``) or cannot be resolved.
+        The message quotes the name, never the file's contents.
+    """
     try:
-        candidate = root / tool
+        real_root = root.resolve()
+        real = (root / name).resolve()
+    except (OSError, RuntimeError, ValueError) as exc:
+        # NUL bytes (ValueError), symlink loops (RuntimeError before Python 3.13, then OSError).
+        raise CampaignPathError(f"path {excerpt(name)} cannot be resolved: "
+                                f"{excerpt(str(exc))}") from None
+    if not allow_outside and not real.is_relative_to(real_root):
+        raise CampaignPathError(
+            f"path {excerpt(name)} leaves the campaign folder {real_root}; a campaign may only "
+            f"read files inside its folder (load_campaign(..., allow_outside=True) lifts this)")
+    return real
+
+
+def tool_file(root: Path, tool: str, allow_outside: bool = False) -> Path | None:
+    """The preset file ``tool`` names inside the campaign folder ``root`` (real path), or None
+    when there is no such file.
+
+    Raises
+    ------
+    CampaignPathError
+        If ``tool`` names a path outside ``root`` and ``allow_outside`` is false.
+    """
+    candidate = campaign_path(root, tool, allow_outside)
+    try:
         return candidate if candidate.is_file() else None
     except (OSError, ValueError):
-        # Names too long or with NUL bytes are not files; is_file() does not swallow all.
+        # Names too long are not files; is_file() does not swallow all errors.
         return None
 
 
-def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) -> Campaign:
+def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None,
+                   allow_outside: bool = False) -> Campaign:
     """Validate a parsed campaign.toml and build a Campaign without sample data.
 
     ``root`` is the folder used to resolve a preset-file tool; None skips that check.
+    ``allow_outside`` lets that file lie outside ``root`` (see :func:`campaign_path`).
     """
     _check_keys(ctx, doc, (), _TOP_KEYS)
     name = _get_str(ctx, doc, ("name",))
@@ -235,10 +303,15 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) 
     bit = _get_str(ctx, doc, ("bit",))
     assert name is not None and tool is not None and bit is not None
     if bit not in KNOWN_BITS:
-        ctx.fail(("bit",), f"unknown bit {bit!r} (allowed: {' | '.join(KNOWN_BITS)})")
-    if tool not in KNOWN_TOOLS and root is not None and tool_file(root, tool) is None:
-        ctx.fail(("tool",), f"unknown tool {tool!r}: neither a known preset "
-                 f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file {root / tool}")
+        ctx.fail(("bit",), f"unknown bit {excerpt(bit)} (allowed: {' | '.join(KNOWN_BITS)})")
+    if tool not in KNOWN_TOOLS and root is not None:
+        try:
+            preset_file = tool_file(root, tool, allow_outside)
+        except CampaignPathError as exc:
+            ctx.fail(("tool",), str(exc))
+        if preset_file is None:
+            ctx.fail(("tool",), f"unknown tool {excerpt(tool)}: neither a known preset "
+                     f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file in {root}")
     wob_default = _get_positive(ctx, doc, ("wob_klbf",), required=False)
     description = ""
     if "description" in doc:
@@ -249,7 +322,8 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None) 
     sensors = _parse_sensors(ctx, doc)
     events = _parse_events(ctx, doc, sensors, wob_default)
     return Campaign(name=name, tool=tool, bit=bit, wob_klbf=wob_default, sensors=sensors,
-                    events=events, root=root, description=description)
+                    events=events, root=root, description=description,
+                    allow_outside=allow_outside)
 
 
 def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor]:
@@ -263,7 +337,7 @@ def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor
     sensors: dict[str, Sensor] = {}
     for sname, spec in table.items():
         path: tuple[str | int, ...] = ("sensors", sname)
-        if not _SENSOR_NAME_RE.fullmatch(sname):
+        if not _BARE_KEY_RE.fullmatch(sname):
             ctx.fail(path, "sensor names may only use letters, digits, '_' and '-'")
         if not isinstance(spec, dict):
             ctx.fail(path, f"must be a table, got {_type_name(spec)}")
@@ -272,9 +346,10 @@ def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor
             ctx.fail(path + ("dof",), "required key is missing")
         dof = spec["dof"]
         if isinstance(dof, bool) or not isinstance(dof, int):
-            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {_type_name(dof)} {dof!r}")
+            ctx.fail(path + ("dof",),
+                     f"must be an integer 1..7, got {_type_name(dof)} {excerpt(dof)}")
         if not 1 <= dof <= 7:
-            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {dof}")
+            ctx.fail(path + ("dof",), f"must be an integer 1..7, got {excerpt(dof)}")
         rate = _get_positive(ctx, spec, path + ("rate_hz",))
         range_g = _get_positive(ctx, spec, path + ("range_g",))
         lowpass = _get_positive(ctx, spec, path + ("lowpass_hz",), required=False)
@@ -305,10 +380,10 @@ def _parse_events(ctx: TomlContext, doc: Mapping[str, Any], sensors: Mapping[str
             ctx.fail(path, f"must be a table, got {_type_name(spec)}")
         event_id = _get_str(ctx, spec, path + ("id",))
         assert event_id is not None
-        label = f" (event {event_id!r})"
+        label = f" (event {excerpt(event_id)})"
         _check_keys(ctx, spec, path, _EVENT_KEYS, label)
         if event_id in first_index:
-            ctx.fail(path + ("id",), f"duplicate event id {event_id!r}, already used by "
+            ctx.fail(path + ("id",), f"duplicate event id {excerpt(event_id)}, already used by "
                      f"events[{first_index[event_id]}]", label)
         first_index[event_id] = i
         flow = _get_positive(ctx, spec, path + ("flow_gpm",), label=label)
@@ -351,12 +426,12 @@ def _parse_features(ctx: TomlContext, spec: Mapping[str, Any], path: tuple[str |
         kpath = path + ("features", key)
         if _split_feature(key, sensors) is None:
             ctx.fail(kpath, f"feature keys are <sensor>_<feature> with a declared sensor "
-                     f"({', '.join(sensors)}) and a feature in {{{', '.join(FEATURES)}}}",
+                     f"({excerpt(', '.join(sensors))}) and a feature in {{{', '.join(FEATURES)}}}",
                      label)
         value = _get_number(ctx, table, kpath, label=label)
         assert value is not None
         if value < 0:
-            ctx.fail(kpath, f"must be >= 0, got {value!r}", label)
+            ctx.fail(kpath, f"must be >= 0, got {excerpt(value)}", label)
         features[key] = value
     return features
 
@@ -422,41 +497,45 @@ def _diagnose_rows(text: str, columns: list[str]) -> tuple[int, str] | None:
         for col, token in zip(columns, fields, strict=True):
             low = token.strip().lower()
             if low in _NA_TOKENS:
-                return lineno, f"column {col!r}: missing value or NaN ({token!r})"
+                return lineno, f"column {excerpt(col)}: missing value or NaN ({excerpt(token)})"
             if low in _INF_TOKENS:
-                return lineno, f"column {col!r}: infinite value ({token!r})"
+                return lineno, f"column {excerpt(col)}: infinite value ({excerpt(token)})"
             if not _NUMBER_RE.fullmatch(token):
-                return lineno, f"column {col!r}: non-numeric value {token!r}"
+                return lineno, f"column {excerpt(col)}: non-numeric value {excerpt(token)}"
             if not math.isfinite(float(token)):
-                return lineno, f"column {col!r}: value out of float range ({token!r})"
+                return lineno, (f"column {excerpt(col)}: value out of float range "
+                                f"({excerpt(token)})")
     return None
 
 
 def _check_header(header: list[str], expected: list[str], where: str) -> None:
     """The header names ``time_s`` first and each declared sensor's column exactly once."""
+    wanted = excerpt(",".join(expected))
     if header[0] != "time_s":
         raise CampaignError(f"{where}, line 1: the first column must be 'time_s', found "
-                            f"{header[0]!r} (expected header {','.join(expected)})")
+                            f"{excerpt(header[0])} (expected header {wanted})")
     for j, col in enumerate(header):
         if col in header[:j]:
-            raise CampaignError(f"{where}, line 1: column {col!r} appears twice")
+            raise CampaignError(f"{where}, line 1: column {excerpt(col)} appears twice")
         if col not in expected:
             sensor = col[:-2] if col.endswith("_g") else None
-            why = (f"no sensor {sensor!r} is declared" if sensor
+            why = (f"no sensor {excerpt(sensor)} is declared" if sensor
                    else "sensor columns are named <sensor>_g")
-            raise CampaignError(f"{where}, line 1: unexpected column {col!r} ({why}; "
-                                f"expected columns {','.join(expected)})")
+            raise CampaignError(f"{where}, line 1: unexpected column {excerpt(col)} ({why}; "
+                                f"expected columns {wanted})")
     for col in expected:
         if col not in header:
-            raise CampaignError(f"{where}, line 1: missing column {col!r} for sensor "
-                                f"{col[:-2]!r} declared in {CAMPAIGN_FILE}")
+            raise CampaignError(f"{where}, line 1: missing column {excerpt(col)} for sensor "
+                                f"{excerpt(col[:-2])} declared in {CAMPAIGN_FILE}")
 
 
 def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
-                    label: str) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
-    """Read and validate one event CSV; return the samples and the clipping masks."""
+                    where: str) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
+    """Read and validate one event CSV; return the samples and the clipping masks.
+
+    ``where`` starts every error message (the file as the campaign names it, and the event).
+    """
     expected = ["time_s"] + [s.column for s in sensors.values()]
-    where = f"{path}{label}"
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -465,7 +544,7 @@ def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
     raw = raw.rstrip(b" \t\r\n")
     if not raw.strip():
         raise CampaignError(f"{where}, line 1: empty file; expected the header "
-                            f"{','.join(expected)}")
+                            f"{excerpt(','.join(expected))}")
     head_and_body = _LINE_SPLIT_BYTES_RE.split(raw, maxsplit=1)
     try:
         # Only the header is decoded up front: pandas parses the bytes faster than a str.
@@ -528,13 +607,18 @@ def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
 # Public entry points
 
 
-def load_campaign(path: str | Path) -> Campaign:
+def load_campaign(path: str | Path, *, allow_outside: bool = False) -> Campaign:
     """Read and validate a campaign folder.
 
     Parameters
     ----------
     path : str or pathlib.Path
         The campaign folder (holding ``campaign.toml``) or the TOML file itself.
+    allow_outside : bool
+        Let event CSVs and a preset-file ``tool`` lie outside the campaign folder. By default
+        a campaign may only read files inside its folder (real paths compared, so ``..``,
+        absolute paths and symbolic links leading out are refused); the flag is kept on the
+        returned campaign for :func:`~vadsim.campaigns.resolve.campaign_preset`.
 
     Returns
     -------
@@ -546,6 +630,7 @@ def load_campaign(path: str | Path) -> Campaign:
     ------
     CampaignError
         On any violation of the format; the message names the file and the line or key.
+        Also when a file the campaign names lies outside its folder (see ``allow_outside``).
 
     Warns
     -----
@@ -582,26 +667,37 @@ def load_campaign(path: str | Path) -> Campaign:
         raise CampaignError(f"{toml_path}: TOML syntax error: {msg}") from None
     except RecursionError:
         raise CampaignError(f"{toml_path}: TOML syntax error: nesting too deep") from None
+    except ValueError as exc:
+        # Not a TOMLDecodeError: an integer beyond Python's digit limit for int(str).
+        raise CampaignError(f"{toml_path}: TOML value cannot be read: {excerpt(str(exc))}"
+                            ) from None
 
     ctx = TomlContext(toml_path, text)
-    campaign = parse_document(doc, ctx, root)
+    campaign = parse_document(doc, ctx, root, allow_outside)
     for i, event in enumerate(campaign.events):
         if event.file is None:
             continue
-        label = f" (event {event.id!r})"
-        csv_path = root / event.file
+        label = f" (event {excerpt(event.id)})"
+        try:
+            # The checked real path is what is read, not the name resolved again later.
+            csv_path = campaign_path(root, event.file, allow_outside)
+        except CampaignPathError as exc:
+            ctx.fail(("events", i, "file"), str(exc), label)
+        shown = (root / event.file if len(event.file) <= EXCERPT_CHARS
+                 else f"{root}{os.sep}{excerpt(event.file)}")
         try:
             exists = csv_path.is_file()
         except (OSError, ValueError):
             exists = False
         if not exists:
-            ctx.fail(("events", i, "file"), f"CSV file not found: {csv_path}", label)
-        event.data, event.clipped = _read_event_csv(csv_path, campaign.sensors, label)
+            ctx.fail(("events", i, "file"), f"CSV file not found: {shown}", label)
+        event.data, event.clipped = _read_event_csv(csv_path, campaign.sensors,
+                                                    f"{shown}{label}")
         if event.n_clipped:
             per_sensor = ", ".join(f"{name}: {int(np.count_nonzero(m))}"
                                    for name, m in event.clipped.items() if m.any())
             warnings.warn(
-                f"{csv_path}{label}: {event.n_clipped} samples at or beyond the sensor range "
+                f"{shown}{label}: {event.n_clipped} samples at or beyond the sensor range "
                 f"({per_sensor}); flagged in Event.clipped, do not trust their values",
                 ClippedSamplesWarning, stacklevel=2,
             )

@@ -12,42 +12,28 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import tomli_w
 
 from vadsim.campaigns.format import (
-    BARE_KEY_RE,
     CAMPAIGN_FILE,
     KNOWN_TOOLS,
     Campaign,
     CampaignError,
     Sensor,
-    toml_str,
+    excerpt,
 )
-from vadsim.campaigns.reading import TomlContext, parse_document, time_problem, tool_file
+from vadsim.campaigns.reading import (
+    CampaignPathError,
+    TomlContext,
+    parse_document,
+    time_problem,
+    tool_file,
+)
 
 __all__ = ["save_campaign"]
 
-def _toml_value(value: Any) -> str:
-    # Only the types a campaign holds; TOML spells bool lowercase and float specials bare.
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return toml_str(value)
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
-        return f"{{ {items} }}" if items else "{}"
-    raise CampaignError(f"cannot write a {type(value).__name__} value to TOML: {value!r}")
-
-
-def _toml_key(key: str) -> str:
-    return key if BARE_KEY_RE.fullmatch(key) else toml_str(key)
+#: First line of every campaign.toml written here (tomli-w writes no comments).
+HEADER_COMMENT = "# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."
 
 
 def _as_number(value: Any) -> int | float:
@@ -57,9 +43,8 @@ def _as_number(value: Any) -> int | float:
     return value
 
 
-def _campaign_document(campaign: Campaign, tool: str,
-                       files: Mapping[str, str]) -> tuple[dict[str, Any], str]:
-    """The campaign as a TOML-shaped dict (for validation) and as TOML text."""
+def _campaign_document(campaign: Campaign, tool: str, files: Mapping[str, str]) -> dict[str, Any]:
+    """The campaign as a TOML-shaped dict, as :func:`tomllib.loads` would return it."""
     doc: dict[str, Any] = {"name": campaign.name, "tool": tool, "bit": campaign.bit}
     if campaign.wob_klbf is not None:
         doc["wob_klbf"] = float(_as_number(campaign.wob_klbf))
@@ -85,18 +70,34 @@ def _campaign_document(campaign: Campaign, tool: str,
         if ev.reference:
             spec["reference"] = {k: _as_number(v) for k, v in ev.reference.items()}
         doc["events"].append(spec)
+    return doc
 
-    lines = ["# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."]
-    for key in ("name", "tool", "bit", "wob_klbf", "description"):
-        if key in doc:
-            lines.append(f"{key} = {_toml_value(doc[key])}")
-    for key, spec in doc["sensors"].items():
-        lines += ["", f"[sensors.{_toml_key(key)}]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
+
+def _toml_pairs(table: Mapping[str, Any]) -> list[str]:
+    """``key = value`` for each entry of a table of plain values, as tomli-w spells them."""
+    return [tomli_w.dumps({key: value}).rstrip("\n") for key, value in table.items()]
+
+
+def _toml_text(doc: Mapping[str, Any]) -> str:
+    """The document as TOML, laid out as RECORDINGS.md shows it.
+
+    tomli-w does all the quoting and escaping; only the layout is chosen here: one
+    ``[sensors.<name>]`` table per sensor, one ``[[events]]`` table per event (tomli-w would
+    fold short events into one inline array, where an error could no longer be given a line)
+    and each event's ``features`` and ``reference`` as one-line inline tables, joined from
+    tomli-w's pairs.
+    """
+    top = {k: v for k, v in doc.items() if k not in ("sensors", "events")}
+    blocks = [HEADER_COMMENT + "\n" + tomli_w.dumps(top)]
+    blocks += [tomli_w.dumps({"sensors": {key: spec}}) for key, spec in doc["sensors"].items()]
     for spec in doc["events"]:
-        lines += ["", "[[events]]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items()]
-    return doc, "\n".join(lines) + "\n"
+        lines = ["[[events]]"]
+        lines += _toml_pairs({k: v for k, v in spec.items() if not isinstance(v, Mapping)})
+        for key, table in spec.items():
+            if isinstance(table, Mapping):
+                lines.append(f"{key} = {{ {', '.join(_toml_pairs(table))} }}")
+        blocks.append("\n".join(lines) + "\n")
+    return "\n".join(blocks)
 
 
 def _safe_relative(name: str) -> bool:
@@ -110,9 +111,10 @@ def _event_values(data: pd.DataFrame, sensors: Mapping[str, Sensor], label: str)
     extra = [c for c in data.columns if c not in columns]
     missing = [c for c in columns if c not in data.columns]
     if extra or missing:
-        raise CampaignError(f"event{label}: data columns must be {', '.join(columns)}"
-                            f"{'; unexpected ' + ', '.join(map(str, extra)) if extra else ''}"
-                            f"{'; missing ' + ', '.join(missing) if missing else ''}")
+        unexpected = "; unexpected " + excerpt(", ".join(map(str, extra))) if extra else ""
+        absent = "; missing " + excerpt(", ".join(missing)) if missing else ""
+        raise CampaignError(f"event{label}: data columns must be "
+                            f"{excerpt(', '.join(columns))}{unexpected}{absent}")
     values = data[columns].to_numpy(dtype=np.float64)
     if values.shape[0] < 2:
         raise CampaignError(f"event{label}: data needs at least 2 samples")
@@ -160,61 +162,78 @@ def save_campaign(campaign: Campaign, folder: str | Path) -> Path:
     ------
     CampaignError
         If the campaign would not load back: any rule of the format broken (checked before
-        anything is written), an event with ``file`` but no ``data``, two events writing the
-        same file.
+        anything is written), an event with ``file`` but no ``data``, two files of the same
+        name. Also when the preset-file ``tool`` lies outside ``campaign.root`` (the current
+        folder when None) and ``campaign.allow_outside`` is false.
 
     Notes
     -----
     Accelerations are written exactly (shortest float64 repr); ``time_s`` with 7 decimals
-    (see the module docstring). A tool given as a preset file relative to ``campaign.root`` is
-    copied next to the new ``campaign.toml``; one outside it is referenced by absolute path.
+    (see the module docstring). A tool given as a preset file is copied into the new folder:
+    to the same relative path when it has one inside ``campaign.root``, else (a file outside,
+    read with ``allow_outside``) under its own file name, so the saved folder is self-contained
+    and loads without ``allow_outside``. ``campaign.toml`` is written with tomli-w.
     """
     folder = Path(folder)
     for key, sensor in campaign.sensors.items():
         if sensor.name != key:
-            raise CampaignError(f"sensors[{key!r}]: Sensor.name is {sensor.name!r}, "
-                                f"it must equal its key")
+            raise CampaignError(f"sensors[{excerpt(key)}]: Sensor.name is "
+                                f"{excerpt(sensor.name)}, it must equal its key")
 
     tool = campaign.tool
     tool_source: Path | None = None
     if tool not in KNOWN_TOOLS:
-        base = campaign.root if campaign.root is not None else Path.cwd()
-        tool_source = tool_file(base, tool)
+        base = Path(campaign.root) if campaign.root is not None else Path.cwd()
+        try:
+            tool_source = tool_file(base, tool, campaign.allow_outside)
+        except CampaignPathError as exc:
+            raise CampaignError(f"campaign {excerpt(campaign.name)}: key tool: {exc}") from None
         if tool_source is None:
-            raise CampaignError(f"tool {tool!r}: neither a known preset "
-                                f"({', '.join(KNOWN_TOOLS)}) nor an existing file {base / tool}")
-        if not _safe_relative(tool):
-            tool, tool_source = str(tool_source.resolve()), None
+            raise CampaignError(f"tool {excerpt(tool)}: neither a known preset "
+                                f"({', '.join(KNOWN_TOOLS)}) nor an existing file in {base}")
+        if not (_safe_relative(tool) and tool_source.is_relative_to(base.resolve())):
+            tool = tool_source.name
 
     files: dict[str, str] = {}
     owners: dict[str, str] = {}
     for ev in campaign.events:
         if ev.data is None:
             if ev.file is not None:
-                raise CampaignError(f"event {ev.id!r}: file {ev.file!r} is set but data is "
-                                    f"None; nothing to write")
+                raise CampaignError(f"event {excerpt(ev.id)}: file {excerpt(ev.file)} is set "
+                                    f"but data is None; nothing to write")
             continue
         name = ev.file if ev.file is not None and _safe_relative(ev.file) else (
             re.sub(r"[^A-Za-z0-9._-]", "_", ev.id) + ".csv")
         if name in owners:
-            raise CampaignError(f"events {owners[name]!r} and {ev.id!r} would both be written "
-                                f"to {name}")
+            raise CampaignError(f"events {excerpt(owners[name])} and {excerpt(ev.id)} would "
+                                f"both be written to {excerpt(name)}")
+        if name == CAMPAIGN_FILE or (tool_source is not None and name == tool):
+            raise CampaignError(f"event {excerpt(ev.id)}: file {excerpt(name)} would overwrite "
+                                f"the campaign's {'TOML' if name == CAMPAIGN_FILE else 'tool'}")
         owners[name] = ev.id
         files[ev.id] = name
+    if tool == CAMPAIGN_FILE:
+        raise CampaignError(f"tool {excerpt(campaign.tool)}: a preset file named "
+                            f"{CAMPAIGN_FILE} would overwrite the campaign's own")
 
-    doc, text = _campaign_document(campaign, tool, files)
+    doc = _campaign_document(campaign, tool, files)
     # Same validator as load_campaign, so nothing is written that would not load back.
-    parse_document(doc, TomlContext(f"campaign {campaign.name!r}", None), None)
+    parse_document(doc, TomlContext(f"campaign {excerpt(campaign.name)}", None), None)
+    try:
+        text = _toml_text(doc)
+    except (TypeError, ValueError) as exc:  # a value tomli-w cannot write
+        raise CampaignError(f"campaign {excerpt(campaign.name)}: cannot write TOML: "
+                            f"{excerpt(str(exc))}") from None
 
     # All samples are checked before the first byte is written: no half-written folder.
     for ev in campaign.events:
         if ev.id in files:
-            _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+            _event_values(ev.data, campaign.sensors, f" {excerpt(ev.id)}")
 
     folder.mkdir(parents=True, exist_ok=True)
     for ev in campaign.events:
         if ev.id in files:
-            values = _event_values(ev.data, campaign.sensors, f" {ev.id!r}")
+            values = _event_values(ev.data, campaign.sensors, f" {excerpt(ev.id)}")
             _write_event_csv(folder / files[ev.id], values, campaign.sensors)
     if tool_source is not None:
         dest = folder / tool
