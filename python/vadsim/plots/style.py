@@ -17,7 +17,7 @@ import os
 import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ParamSpec
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import matplotlib as mpl
 import numpy as np
@@ -85,13 +85,14 @@ SAVE_SUFFIXES = (".png", ".pdf", ".svg")
 MODE_TEXT = {"independent": "independent runs", "continuation": "continuation sweep"}
 
 _P = ParamSpec("_P")
+_F = TypeVar("_F", bound="Figure | None")  # a figure, or None when there is nothing to draw
 
 
-def styled(func: Callable[_P, Figure]) -> Callable[_P, Figure]:
+def styled(func: Callable[_P, _F]) -> Callable[_P, _F]:
     """Draw (and save) under the module's style, without touching global rcParams."""
 
     @functools.wraps(func)
-    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> Figure:
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _F:
         with mpl.rc_context(STYLE):
             return func(*args, **kwargs)
 
