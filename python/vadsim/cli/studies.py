@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -26,6 +26,9 @@ from vadsim.cli.common import (
     parse_overrides,
 )
 from vadsim.model.presets import PRESETS, get_preset
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["add_parsers"]
 
@@ -164,7 +167,7 @@ def _finish_dataset(ds: Any, args: argparse.Namespace) -> None:
         print(f"saved {args.out}")
 
 
-def _draw(ds: Any, base: str, figures: dict[str, Callable[..., Any]]) -> list[str]:
+def _draw(ds: Any, base: str, figures: dict[str, Callable[..., Figure]]) -> list[str]:
     """Draw each figure of ``ds`` to ``figure_path(base, kind)``; the files written."""
     paths = []
     for kind, fn in figures.items():
@@ -196,7 +199,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if args.plot:
         from vadsim import plots
 
-        figures = {"peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow}
+        figures: dict[str, Callable[..., Figure]] = {
+            "peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow}
         for path in _draw(ds, args.plot, figures):
             print(f"figure {path}")
     return 0
@@ -299,7 +303,8 @@ def _design_optimise(args: argparse.Namespace) -> int:
                         {"gap_ratio": np.linspace(*design.STUDIES["gap"].values(2), 14)},
                         overrides=fixed, gap_via=args.gap_via, detail="map",
                         workers=args.workers, progress=not args.quiet)
-        figures = {"map-regimes": plots.regime_map, "map-j": plots.j_map}
+        figures: dict[str, Callable[..., Figure]] = {"map-regimes": plots.regime_map,
+                                                     "map-j": plots.j_map}
         for path in _draw(gap_map, args.plot, figures):
             print(f"figure {path}")
     if args.out:
