@@ -145,9 +145,9 @@ def _flows(args: argparse.Namespace) -> list[float]:
 
     if args.hz:
         lo, hi, step = args.hz
-        return [float(q) for q in flows_from_hz(args.preset, arange(lo, hi, step, "--hz"))]
+        return [float(q) for q in flows_from_hz(args.preset, arange(lo, hi, step, flag="--hz"))]
     lo, hi, step = args.flows
-    return [float(q) for q in arange(lo, hi, step, "--flows")]
+    return [float(q) for q in arange(lo, hi, step, flag="--flows")]
 
 
 def _sweep_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -334,7 +334,7 @@ def _cmd_thesis(args: argparse.Namespace) -> int:
     from vadsim.studies import thesis
     from vadsim.studies.sweep import sweep
 
-    ds = sweep("7in-cde", arange(200, 650, 10, "--flows"), cycles=args.cycles,
+    ds = sweep("7in-cde", arange(200, 650, 10, flag="--flows"), cycles=args.cycles,
                analyse_cycles=args.analyse, mode=args.mode, workers=args.workers,
                progress=not args.quiet)
     with pandas_display():
