@@ -299,8 +299,9 @@ def _design_optimise(args: argparse.Namespace) -> int:
             print(f"figure {args.plot}")
         # The optimum's map: flow x gap ratio over the published range, kS and Fo optimal.
         fixed = {k: v for k, v in opt.best.items() if k != "gap_ratio"}
+        gap_lo, gap_hi = design.STUDIES["gap"].values(2)
         gap_map = sweep(args.preset, design.thesis_flows(args.preset, 1.0),
-                        {"gap_ratio": np.linspace(*design.STUDIES["gap"].values(2), 14)},
+                        {"gap_ratio": np.linspace(gap_lo, gap_hi, 14)},
                         overrides=fixed, gap_via=args.gap_via, detail="map",
                         workers=args.workers, progress=not args.quiet)
         figures: dict[str, Callable[..., Figure]] = {"map-regimes": plots.regime_map,
