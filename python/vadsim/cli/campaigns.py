@@ -177,10 +177,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             print(f"  [{stage}] evaluation {n}: cost {cost:.4g} at "
                   + ", ".join(f"{k}={v:.5g}" for k, v in vals.items()), flush=True)
 
+    global_stages: dict[str, bool | str] = {"scan": "scan", "de": "de", "none": False}
     res = calibrate(args.campaign, args.param, bounds=bounds or None, start=start or None,
                     targets=args.targets, keys=args.keys, resolution=args.resolution,
                     overrides=parse_overrides(args.set),
-                    global_stage={"scan": "scan", "de": "de", "none": False}[args.global_stage],
+                    global_stage=global_stages[args.global_stage],
                     n_global=args.n_global, n_starts=args.starts,
                     popsize=args.popsize, maxiter=args.maxiter, seed=args.seed,
                     profile_points=args.profile, cycles=args.cycles,

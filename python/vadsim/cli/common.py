@@ -154,7 +154,7 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, float]:
     return out
 
 
-def arange(lo: float, hi: float, step: float, flag: str) -> list[float]:
+def arange(lo: float, hi: float, step: float, *, flag: str) -> list[float]:
     """``lo, lo + step, ...`` up to ``hi`` inclusive (within rounding), for axis flags."""
     if not (step > 0) or hi < lo:
         raise ValueError(f"{flag} {lo:g} {hi:g} {step:g}: need FROM <= TO and STEP > 0")

@@ -9,9 +9,9 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vadsim.cli.common import (
     DEFAULT_PRESET,
@@ -23,6 +23,9 @@ from vadsim.cli.common import (
 from vadsim.model.presets import PRESETS, get_preset, param_table
 from vadsim.model.simulate import SURFACES, SimulationResult, simulate
 from vadsim.signals.labels import regime_name
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["FlowsThenPreset", "add_parsers"]
 
@@ -214,8 +217,10 @@ def _cmd_plot(args: argparse.Namespace) -> int:
                 raise ValueError("plot compare needs two files: original and changed design")
             plots.design_comparison(ds[0], ds[1], path=args.out)
         else:
-            fn = {"peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow,
-                  "regime-map": plots.regime_map, "j-map": plots.j_map}[args.kind]
+            figures: dict[str, Callable[..., Figure]] = {
+                "peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow,
+                "regime-map": plots.regime_map, "j-map": plots.j_map}
+            fn = figures[args.kind]
             kwargs = {"reference": args.reference} if args.kind == "peaks" and args.reference \
                 else {}
             fn(ds[0], path=args.out, **kwargs)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -26,6 +26,9 @@ from vadsim.cli.common import (
     parse_overrides,
 )
 from vadsim.model.presets import PRESETS, get_preset
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["add_parsers"]
 
@@ -142,9 +145,9 @@ def _flows(args: argparse.Namespace) -> list[float]:
 
     if args.hz:
         lo, hi, step = args.hz
-        return [float(q) for q in flows_from_hz(args.preset, arange(lo, hi, step, "--hz"))]
+        return [float(q) for q in flows_from_hz(args.preset, arange(lo, hi, step, flag="--hz"))]
     lo, hi, step = args.flows
-    return [float(q) for q in arange(lo, hi, step, "--flows")]
+    return [float(q) for q in arange(lo, hi, step, flag="--flows")]
 
 
 def _sweep_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -164,7 +167,7 @@ def _finish_dataset(ds: Any, args: argparse.Namespace) -> None:
         print(f"saved {args.out}")
 
 
-def _draw(ds: Any, base: str, figures: dict[str, Callable[..., Any]]) -> list[str]:
+def _draw(ds: Any, base: str, figures: dict[str, Callable[..., Figure]]) -> list[str]:
     """Draw each figure of ``ds`` to ``figure_path(base, kind)``; the files written."""
     paths = []
     for kind, fn in figures.items():
@@ -196,7 +199,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if args.plot:
         from vadsim import plots
 
-        figures = {"peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow}
+        figures: dict[str, Callable[..., Figure]] = {
+            "peaks": plots.peaks_vs_flow, "z": plots.z_vs_flow, "j": plots.j_vs_flow}
         for path in _draw(ds, args.plot, figures):
             print(f"figure {path}")
     return 0
@@ -295,11 +299,13 @@ def _design_optimise(args: argparse.Namespace) -> int:
             print(f"figure {args.plot}")
         # The optimum's map: flow x gap ratio over the published range, kS and Fo optimal.
         fixed = {k: v for k, v in opt.best.items() if k != "gap_ratio"}
+        gap_lo, gap_hi = design.STUDIES["gap"].values(2)
         gap_map = sweep(args.preset, design.thesis_flows(args.preset, 1.0),
-                        {"gap_ratio": np.linspace(*design.STUDIES["gap"].values(2), 14)},
+                        {"gap_ratio": np.linspace(gap_lo, gap_hi, 14)},
                         overrides=fixed, gap_via=args.gap_via, detail="map",
                         workers=args.workers, progress=not args.quiet)
-        figures = {"map-regimes": plots.regime_map, "map-j": plots.j_map}
+        figures: dict[str, Callable[..., Figure]] = {"map-regimes": plots.regime_map,
+                                                     "map-j": plots.j_map}
         for path in _draw(gap_map, args.plot, figures):
             print(f"figure {path}")
     if args.out:
@@ -329,7 +335,7 @@ def _cmd_thesis(args: argparse.Namespace) -> int:
     from vadsim.studies import thesis
     from vadsim.studies.sweep import sweep
 
-    ds = sweep("7in-cde", arange(200, 650, 10, "--flows"), cycles=args.cycles,
+    ds = sweep("7in-cde", arange(200, 650, 10, flag="--flows"), cycles=args.cycles,
                analyse_cycles=args.analyse, mode=args.mode, workers=args.workers,
                progress=not args.quiet)
     with pandas_display():

@@ -53,7 +53,8 @@ def _flow_axis(ax: Axes, k: float | None) -> None:
     """A top axis in flow rate for an axes whose x is excitation frequency."""
     if k is None:
         return
-    top = ax.secondary_xaxis("top", functions=(lambda f: f / k, lambda q: q * k))
+    top = ax.secondary_xaxis("top", functions=(lambda f: np.divide(f, k),
+                                                   lambda q: np.multiply(q, k)))
     top.set_xlabel("flow rate (gal/min)")
 
 
@@ -75,8 +76,8 @@ def _param_axis(ds: xr.Dataset, name: str) -> tuple[float, str]:
         factor, unit = _DISPLAY_UNITS.get(unit, (1.0, unit))
         unit = "–" if unit == "-" else unit
         return factor, f"{meaning}, {name} ({unit})"
-    unit = ds[name].attrs.get("units") if name in ds.coords else None
-    return 1.0, f"{name} ({unit})" if unit else name
+    coord_unit = ds[name].attrs.get("units") if name in ds.coords else None
+    return 1.0, f"{name} ({coord_unit})" if coord_unit else name
 
 
 def _map_grid(ds: Any, param: str | None, func: str) -> tuple[xr.Dataset, str]:

@@ -17,7 +17,7 @@ import os
 import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, ParamSpec
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import matplotlib as mpl
 import numpy as np
@@ -27,6 +27,9 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from vadsim.signals.labels import regime_name
+
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
 
 REGIME_COLORS: dict[int, str] = {
     -1: "#3d3d3d",  # failed run
@@ -64,7 +67,7 @@ SURFACE_LABELS: dict[str, str] = {
 OPERATING_FRACTION: float = 0.9
 """A flow (or map point) is in the operating range when J* >= this fraction of the maximum."""
 
-STYLE: dict[str, Any] = {
+STYLE: dict[RcKeyType, Any] = {
     "font.size": 10,
     "axes.titlesize": 11,
     "axes.labelsize": 10,
@@ -82,13 +85,14 @@ SAVE_SUFFIXES = (".png", ".pdf", ".svg")
 MODE_TEXT = {"independent": "independent runs", "continuation": "continuation sweep"}
 
 _P = ParamSpec("_P")
+_F = TypeVar("_F", bound="Figure | None")  # a figure, or None when there is nothing to draw
 
 
-def styled(func: Callable[_P, Figure]) -> Callable[_P, Figure]:
+def styled(func: Callable[_P, _F]) -> Callable[_P, _F]:
     """Draw (and save) under the module's style, without touching global rcParams."""
 
     @functools.wraps(func)
-    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> Figure:
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _F:
         with mpl.rc_context(STYLE):
             return func(*args, **kwargs)
 
@@ -118,9 +122,12 @@ def new_axes(ax: Axes | None, figsize: tuple[float, float]) -> tuple[Figure, Axe
     if ax is None:
         fig = Figure(figsize=figsize, layout="constrained")
         return fig, fig.add_subplot()
-    fig = ax.figure
-    root = getattr(fig, "figure", None)  # a SubFigure's root figure
-    return (root if isinstance(root, Figure) else fig), ax
+    parent = ax.figure
+    root = getattr(parent, "figure", None)  # a SubFigure's root figure
+    if isinstance(root, Figure):
+        return root, ax
+    assert isinstance(parent, Figure)  # a SubFigure always has a root figure (above)
+    return parent, ax
 
 
 def regime_label(code: int) -> str:
@@ -206,7 +213,8 @@ def frequency_axis(ax: Axes, k: float | None) -> None:
     """A top axis in excitation frequency for an axes whose x is flow."""
     if k is None:
         return
-    top = ax.secondary_xaxis("top", functions=(lambda q: q * k, lambda f: f / k))
+    top = ax.secondary_xaxis("top", functions=(lambda q: np.multiply(q, k),
+                                                   lambda f: np.divide(f, k)))
     top.set_xlabel("excitation frequency (Hz)")
 
 

@@ -304,8 +304,9 @@ def optimise(
         bounds = {s.parameter: (s.lo * s.scale, s.hi * s.scale) for s in STUDIES.values()}
     names = list(bounds)
     q = np.arange(200.0, 650.0 + 1e-9, 25.0) if flows is None else np.asarray(flows, float)
-    kw = dict(cycles=cycles, analyse_cycles=analyse_cycles, progress=False, workers=workers,
-              detail="map")
+    # The same sweep options for the baseline and every candidate (of mixed types, as sweep's).
+    kw: dict[str, Any] = dict(cycles=cycles, analyse_cycles=analyse_cycles, progress=False,
+                              workers=workers, detail="map")
     base_ds = sweep(preset, q, **kw)
     base = design_metrics(base_ds)
     width0 = max(base["range_width_gpm"], float(np.min(np.diff(q))) if q.size > 1 else 1.0)

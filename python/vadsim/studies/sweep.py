@@ -153,7 +153,7 @@ class StoreWarning(UserWarning):
 def flows_from_hz(preset: str | RunSettings, hz: Iterable[float]) -> np.ndarray:
     """Flow rates (gal/min) that give excitation frequencies ``hz`` (f = alpha Q / 2 pi), for a
     preset (name) or run settings (whose ``alpha`` override, if any, counts)."""
-    settings = preset if isinstance(preset, RunSettings) else RunSettings(preset)
+    settings = preset if isinstance(preset, RunSettings) else RunSettings(get_preset(preset))
     return settings.flows_for_hz(hz)
 
 
@@ -842,7 +842,7 @@ def _settings_from(preset: str | None, settings: RunSettings | None,
             raise ValueError(f"extras = {given['extras']!r} must be a sequence of extra forces")
         given["extras"] = tuple(given["extras"])
     if settings is None:
-        return RunSettings("7in-cde" if preset is None else preset, **given)
+        return RunSettings(get_preset("7in-cde" if preset is None else preset), **given)
     if not isinstance(settings, RunSettings):
         raise ValueError(f"settings = {settings!r} must be a vadsim.RunSettings")
     if given:
