@@ -170,3 +170,10 @@ def test_figure_path_keeps_the_suffix():
     assert figure_path("x.png", "peaks") == "x-peaks.png"
     assert figure_path("out/fig.svg", "map-j") == "out/fig-map-j.svg"
     assert figure_path("a.b/x.pdf", "z") == "a.b/x-z.pdf"
+
+
+def test_map_values_need_from_to_step(capsys) -> None:
+    """A wrong number of --values is a named error (exit 2), not a TypeError traceback."""
+    assert main(["map", "--param", "kS", "--values", "1", "2", "3", "4", "--quiet"]) == 2
+    assert "--values 1 2 3 4: expected FROM TO STEP" in capsys.readouterr().err
+    assert main(["map", "--param", "kS", "--values", "1", "2", "3", "--steps", "4"]) == 2

@@ -209,6 +209,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_map(args: argparse.Namespace) -> int:
     from vadsim.studies.sweep import sweep
 
+    need = 3 if args.steps is None else 2
+    if len(args.values) != need:
+        raise ValueError(f"--values {' '.join(f'{v:g}' for v in args.values)}: expected "
+                         + ("FROM TO STEP (or FROM TO with --steps)" if need == 3
+                            else "FROM TO with --steps"))
     axes = {args.param: arange(*args.values, flag="--values") if args.steps is None
             else list(np.linspace(args.values[0], args.values[1], args.steps))}
     if args.param2:
