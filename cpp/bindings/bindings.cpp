@@ -216,17 +216,46 @@ void bind_results(py::module_& m) {
       });
 }
 
+/// @brief True on the interpreter's main thread, the only one where Python runs signal
+/// handlers (PyErr_CheckSignals does nothing elsewhere).
+bool on_main_thread() {
+  const auto main = py::module_::import("threading").attr("main_thread")().attr("ident");
+  return main.cast<unsigned long>() == PyThread_get_thread_ident();
+}
+
+/// @brief Ctrl-C during a run: every kInterruptCheckEvery steps the run takes the GIL back for
+/// a moment and lets Python run its pending signal handlers. A handler that raises (SIGINT's
+/// default raises KeyboardInterrupt) stops the run, and its exception is raised by simulate.
+/// Only on the main thread: elsewhere Python runs no handlers, so a run in a worker thread
+/// has no check and goes on to its end (the main thread gets the KeyboardInterrupt).
+bool python_signal_pending() {
+  py::gil_scoped_acquire gil;
+  return PyErr_CheckSignals() != 0;
+}
+
 /// @brief simulate with the GIL released, so Python threads run simulations in parallel.
 void bind_simulate(py::module_& m) {
   m.def(
       "simulate",
       [](const Model& model, const RunOptions& opts) {
-        py::gil_scoped_release release;
-        return simulate(model, opts);
+        const InterruptCheck check = on_main_thread() ? InterruptCheck(python_signal_pending)
+                                                      : InterruptCheck();
+        try {
+          py::gil_scoped_release release;
+          return simulate(model, opts, check);
+        } catch (const Interrupted& e) {
+          // The GIL is held again, and the signal handler's exception is pending: raise it,
+          // with a note that says how far the run got.
+          if (!PyErr_Occurred()) PyErr_SetNone(PyExc_KeyboardInterrupt);
+          py::error_already_set err;
+          err.value().attr("add_note")(e.what());
+          throw err;
+        }
       },
       py::arg("model"), py::arg("options"),
       "Run the model (GIL released). Raises SolverError on solver failure, ValueError on bad "
-      "options.");
+      "options, and the exception of a signal handler (KeyboardInterrupt for Ctrl-C) when a "
+      "signal arrives during a run on the main thread.");
 }
 
 }  // namespace

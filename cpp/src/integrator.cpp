@@ -88,14 +88,16 @@ State absolute_tolerances(const RunOptions& opts) {
 class EventLoop {
  public:
   /// @brief Sizes the recorder and creates CVODE; throws before any step on bad input.
-  EventLoop(const Model& model, const RunOptions& opts, RunResult& r);
+  EventLoop(const Model& model, const RunOptions& opts, const InterruptCheck& interrupted,
+            RunResult& r);
   EventLoop(const EventLoop&) = delete;
   EventLoop& operator=(const EventLoop&) = delete;
   /// @brief The whole run: step, record, switch contacts at events, restart, until t_end.
   void run();
 
  private:
-  /// @brief One CVODE step within the run's step budget.
+  /// @brief One CVODE step within the run's step budget; every kInterruptCheckEvery steps,
+  /// asks the interrupt check (throws Interrupted when it says stop).
   int take_step(double& tret);
   /// @brief After a step without roots: if a contact switched unreported inside it, record
   /// up to the switch, apply it and restart there (true); else false.
@@ -112,6 +114,7 @@ class EventLoop {
 
   const Model& model_;
   const RunOptions& opts_;
+  const InterruptCheck& interrupted_;
   RunResult& r_;
   const Horizon horizon_;
   const long max_events_;
@@ -124,9 +127,11 @@ class EventLoop {
   long calls_ = 0, stalled_ = 0;
 };
 
-EventLoop::EventLoop(const Model& model, const RunOptions& opts, RunResult& r)
+EventLoop::EventLoop(const Model& model, const RunOptions& opts,
+                     const InterruptCheck& interrupted, RunResult& r)
     : model_(model),
       opts_(opts),
+      interrupted_(interrupted),
       r_(r),
       horizon_(model.params(), opts),
       max_events_(opts.max_events > 0 ? opts.max_events
@@ -168,6 +173,8 @@ int EventLoop::take_step(double& tret) {
                       "step budget max_steps = " + std::to_string(opts_.max_steps) +
                           " exhausted: the run is too stiff or chatters");
   }
+  if (interrupted_ && calls_ % kInterruptCheckEvery == 0 && interrupted_())
+    throw Interrupted(tret, horizon_.t_end, calls_);
   return flag;
 }
 
@@ -220,10 +227,11 @@ void EventLoop::finish() {
 
 }  // namespace
 
-RunResult simulate(const Model& model, const RunOptions& opts) {
+RunResult simulate(const Model& model, const RunOptions& opts,
+                   const InterruptCheck& interrupted) {
   opts.validate();
   RunResult r;
-  EventLoop(model, opts, r).run();
+  EventLoop(model, opts, interrupted, r).run();
   return r;
 }
 

@@ -175,4 +175,6 @@ class RunResult:
     @property
     def event_rel_velocity(self) -> npt.NDArray[np.float64]: ...
 
-def simulate(model: Model, options: RunOptions) -> RunResult: ...
+def simulate(model: Model, options: RunOptions) -> RunResult:
+    """GIL released; on the main thread, a signal handler that raises (Ctrl-C) stops the run
+    within 2000 steps and its exception propagates, with a note of where the run stopped."""

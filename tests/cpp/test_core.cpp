@@ -1064,6 +1064,44 @@ void test_bad_input() {
   }
 }
 
+/// The interrupt check: asked every kInterruptCheckEvery steps; true stops the run with
+/// Interrupted (how far it got), false leaves the run bit for bit as it is without a check.
+void test_interrupt() {
+  const Model m{Params{}};
+  RunOptions o;
+  o.cycles = 200;
+  o.analyse_cycles = 10;
+  o.record = Record::None;
+  o.summary_rate_hz = 2000;
+  const RunResult plain = simulate(m, o);
+  CHECK(plain.stats.steps > 3 * kInterruptCheckEvery, "the run must outlast three checks: ",
+        plain.stats.steps, " steps");
+
+  long asked = 0;
+  const RunResult checked = simulate(m, o, [&asked] {
+    ++asked;
+    return false;
+  });
+  CHECK(asked > 0 && asked <= plain.stats.steps / kInterruptCheckEvery + 1,
+        "checks asked: ", asked, " for ", plain.stats.steps, " steps");
+  CHECK(checked.y_end == plain.y_end && checked.stats.steps == plain.stats.steps &&
+            checked.events.size() == plain.events.size(),
+        "a check that never stops must not change the run");
+
+  asked = 0;
+  bool thrown = false;
+  try {
+    simulate(m, o, [&asked] { return ++asked == 3; });
+  } catch (const Interrupted& e) {
+    thrown = true;
+    CHECK(e.steps() == 3 * kInterruptCheckEvery, "stopped after ", e.steps(), " steps");
+    CHECK(e.t() > 0 && e.t() < e.t_end(), "stopped at t = ", e.t(), " of ", e.t_end());
+    CHECK(std::string(e.what()).find("interrupted at t = ") != std::string::npos, e.what());
+  }
+  CHECK(thrown, "the run was not interrupted");
+  CHECK(asked == 3, "checks asked after the stop: ", asked);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1076,6 +1114,7 @@ int main(int argc, char** argv) {
       {"jacobian_fd", test_jacobian_fd},
       {"contact_laws", test_contact_laws},
       {"bad_input", test_bad_input},
+      {"interrupt", test_interrupt},
   };
   if (argc != 2 || !tests.count(argv[1])) {
     std::fprintf(stderr, "usage: %s TEST\ntests:", argc > 0 ? argv[0] : "vadsim_tests");
