@@ -154,6 +154,8 @@ void bind_run_options(py::module_& m) {
       .def_readwrite("max_steps", &RunOptions::max_steps)
       .def_readwrite("max_events", &RunOptions::max_events)
       .def_readwrite("initial_state", &RunOptions::initial_state)
+      .def("step_budget", &RunOptions::step_budget)
+      .def("event_budget", &RunOptions::event_budget)
       .def("validate", &RunOptions::validate);
 }
 

@@ -117,6 +117,7 @@ class EventLoop {
   const InterruptCheck& interrupted_;
   RunResult& r_;
   const Horizon horizon_;
+  const long max_steps_;
   const long max_events_;
   Recorder recorder_;
   ContactTracker contacts_;
@@ -134,8 +135,8 @@ EventLoop::EventLoop(const Model& model, const RunOptions& opts,
       interrupted_(interrupted),
       r_(r),
       horizon_(model.params(), opts),
-      max_events_(opts.max_events > 0 ? opts.max_events
-                                      : static_cast<long>(200 * std::ceil(opts.cycles)) + 1000),
+      max_steps_(opts.step_budget()),
+      max_events_(opts.event_budget()),
       recorder_(model, opts, horizon_, r),
       contacts_(model, opts.flow_gpm, r.events),
       callbacks_{&model, opts.flow_gpm, &contacts_},
@@ -168,9 +169,9 @@ void EventLoop::run() {
 
 int EventLoop::take_step(double& tret) {
   const int flag = solver_.step(horizon_.t_end, tret);
-  if (++calls_ > opts_.max_steps) {
+  if (++calls_ > max_steps_) {
     throw SolverError("CVode", tret, 0,
-                      "step budget max_steps = " + std::to_string(opts_.max_steps) +
+                      "step budget max_steps = " + std::to_string(max_steps_) +
                           " exhausted: the run is too stiff or chatters");
   }
   if (interrupted_ && calls_ % kInterruptCheckEvery == 0 && interrupted_())

@@ -1,11 +1,25 @@
 #include "vadsim/run_options.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include "vadsim/errors.hpp"
 
 namespace vadsim {
+
+long RunOptions::step_budget() const {
+  if (max_steps > 0) return max_steps;
+  // cycles <= 1e6 (validate): at most 2e10 steps, well inside a long.
+  const double n = kStepsPerCycle * std::ceil(std::max(cycles, 0.0));
+  return std::max(kMinStepBudget, static_cast<long>(std::min(n, 1e15)));
+}
+
+long RunOptions::event_budget() const {
+  if (max_events > 0) return max_events;
+  const double n = kEventsPerCycle * std::ceil(std::max(cycles, 0.0)) + 1000;
+  return static_cast<long>(std::min(n, 1e15));
+}
 
 void RunOptions::validate() const {
   if (!(flow_gpm > 0) || !std::isfinite(flow_gpm)) fail_option("flow_gpm", flow_gpm, "must be > 0");
@@ -22,8 +36,10 @@ void RunOptions::validate() const {
     fail_option("summary_rate_hz", summary_rate_hz, "must be in (0, 1e7]");
   if (!(peak_window_s > 0) || !std::isfinite(peak_window_s))
     fail_option("peak_window_s", peak_window_s, "must be > 0");
-  if (max_steps <= 0) fail_option("max_steps", static_cast<double>(max_steps), "must be > 0");
-  if (max_events < 0) fail_option("max_events", static_cast<double>(max_events), "must be >= 0");
+  if (max_steps < 0)
+    fail_option("max_steps", static_cast<double>(max_steps), "must be >= 0 (0: the default)");
+  if (max_events < 0)
+    fail_option("max_events", static_cast<double>(max_events), "must be >= 0 (0: the default)");
   if (initial_state && !initial_state->allFinite())
     throw std::invalid_argument("option initial_state must be finite");
 }

@@ -405,6 +405,40 @@ def test_solver_error_on_event_budget():
         vadsim.simulate("7in-cde", 200, max_events=3, **TINY)
 
 
+def _budgets(cycles: float, **kw) -> tuple[int, int]:
+    o = vadsim._core.RunOptions()
+    o.cycles = cycles
+    for k, v in kw.items():
+        setattr(o, k, v)
+    return o.step_budget(), o.event_budget()
+
+
+def test_default_budgets_grow_with_the_run_length():
+    # What a run needs per cycle, counted on a 400-cycle run at the slowest tested flow rate
+    # of the 7in tool (most steps per cycle) and at the usual one.
+    need = {}
+    for flow in (5.0, 200.0):
+        r = vadsim.simulate("7in-cde", flow, cycles=400, analyse_cycles=10, record="none",
+                            summary_rate_hz=2000)
+        need[flow] = (r.stats["steps"], len(r.events))
+        steps_400, events_400 = _budgets(400)
+        assert steps_400 >= 5 * r.stats["steps"] and events_400 >= 5 * len(r.events)
+    # A 100000-cycle run needs 250 times as much: the default budgets give it that (and a
+    # margin), as they give it to 400 cycles; they used to be a fixed 2e7 steps.
+    ratio = 100000 / 400
+    steps_long, events_long = _budgets(100000)
+    for steps, events in need.values():
+        assert steps_long >= 5 * ratio * steps
+        assert events_long >= 5 * ratio * events
+    assert steps_long >= ratio * 20000 * 400  # 20000 steps per cycle
+    # Explicit budgets are honoured as given.
+    assert _budgets(100000, max_steps=1234, max_events=56) == (1234, 56)
+    with pytest.raises(vadsim.SolverError, match="max_steps = 50 "):
+        vadsim.simulate("7in-cde", 200, max_steps=50, **TINY)
+    with pytest.raises(ValueError, match=r"max_steps = 0 "):
+        vadsim.simulate("7in-cde", 200, max_steps=0, **TINY)
+
+
 # --------------------------------------------------------------------------------------------
 # Continuation, overrides, wob, laws
 # --------------------------------------------------------------------------------------------

@@ -219,8 +219,8 @@ def simulate(
     output_rate_hz: float = 20000.0,
     summary_rate_hz: float = 20000.0,
     initial_state: Sequence[float] | np.ndarray | SimulationResult | None = None,
-    max_steps: int = 20_000_000,
-    max_events: int = 0,
+    max_steps: int | None = None,
+    max_events: int | None = None,
 ) -> SimulationResult:
     """Run the model at one flow rate: static on-bottom state, flow on at t = 0.
 
@@ -255,6 +255,10 @@ def simulate(
         static equilibrium: continuation along a flow sweep.
     max_steps, max_events
         Budgets that turn a pathological input into a :class:`SolverError` instead of a hang.
+        ``None`` (default): budgets that grow with the run, 20000 steps per cycle (at least
+        20 million) and 200 contact events per cycle (plus 1000); a valid run takes 20 to
+        4000 steps and at most ~15 events per cycle. An explicit positive integer is used
+        as given.
 
     Returns
     -------
@@ -306,18 +310,31 @@ def simulate(
         raise ValueError(f"method = {method!r} must be 'adams' or 'bdf'")
     if not isinstance(record, str) or record not in _RECORDS:
         raise ValueError(f"record = {record!r} must be 'window', 'all' or 'none'")
+    budgets = {}
     for name, value in (("max_steps", max_steps), ("max_events", max_events)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise ValueError(f"{name} = {value!r} must be an integer")
-        _number(name, value, integer=True)
+        budgets[name] = _budget(name, value)
     core_model = _core.Model(params, [_core_extra(e) for e in extras])
     opts = _run_options(flow, cycles=cycles, analyse_cycles=analyse_cycles, method=method,
                         rtol=rtol, atol=atol, max_step=max_step, record=record,
                         output_rate_hz=output_rate_hz, summary_rate_hz=summary_rate_hz,
-                        max_steps=max_steps, max_events=max_events,
+                        max_steps=budgets["max_steps"], max_events=budgets["max_events"],
                         initial_state=initial_state)
     r = _core.simulate(core_model, opts)
     return _result(r, params, preset, flow, cycles, analyse_cycles)
+
+
+def _budget(name: str, value: Any) -> int:
+    """A step or event budget for the core: None -> 0 (the core's default, growing with the
+    run), else a positive integer (``max_events = 0`` still means the default)."""
+    if value is None:
+        return 0
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} = {value!r} must be an integer or None")
+    out = int(_number(name, value, integer=True))
+    low = 1 if name == "max_steps" else 0
+    if out < low:
+        raise ValueError(f"{name} = {value!r} must be >= {low} (or None: grows with the run)")
+    return out
 
 
 def _core_extra(e: Any) -> _core.ExtraForce:
