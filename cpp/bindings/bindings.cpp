@@ -56,6 +56,8 @@ void bind_params(py::module_& m) {
       .def("validate", &Params::validate)
       .def("gap", &Params::gap)
       .def("excitation_hz", &Params::excitation_hz, py::arg("flow_gpm"))
+      .def("flow_range_gpm", &Params::flow_range_gpm,
+           "The flow rates (gal/min) whose excitation lies in EXCITATION_HZ_RANGE")
       .def("get", [](const Params& p, const std::string& n) { return get_param(p, n); })
       .def("set", [](Params& p, const std::string& n, double v) { set_param(p, n, v); })
       .def(py::pickle(
@@ -84,7 +86,7 @@ void bind_params(py::module_& m) {
                          : info.rule == ParamInfo::Rule::NonNegative ? "non-negative"
                          : info.rule == ParamInfo::Rule::Exponent    ? "exponent"
                                                                      : "finite";
-      out.append(py::make_tuple(info.name, info.unit, info.meaning, rule));
+      out.append(py::make_tuple(info.name, info.unit, info.meaning, rule, info.lo, info.hi));
     }
     return out;
   });
@@ -156,7 +158,9 @@ void bind_run_options(py::module_& m) {
       .def_readwrite("initial_state", &RunOptions::initial_state)
       .def("step_budget", &RunOptions::step_budget)
       .def("event_budget", &RunOptions::event_budget)
-      .def("validate", &RunOptions::validate);
+      .def("validate", py::overload_cast<>(&RunOptions::validate, py::const_))
+      .def("validate", py::overload_cast<const Params&>(&RunOptions::validate, py::const_),
+           py::arg("params"));
 }
 
 /// @brief The result types, read-only: numpy views of the C++ arrays.
@@ -266,6 +270,7 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "vadsim C++ core: the 7-DOF vibro-impact model integrated by CVODE";
   m.attr("N_DOF") = kDof;
   m.attr("N_SURFACES") = kSurfaces;
+  m.attr("EXCITATION_HZ_RANGE") = py::make_tuple(kMinExcitationHz, kMaxExcitationHz);
 #ifdef VADSIM_VERSION
   m.attr("__version__") = VADSIM_VERSION;  // pyproject.toml's, passed in by CMake
 #endif

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "vadsim/contact_tracker.hpp"
@@ -66,12 +67,23 @@ class Segment final : public Trajectory {
   State y0_ = State::Zero();
 };
 
-/// @brief The initial state in displacements from the static equilibrium.
+/// @brief The initial state in displacements from the static equilibrium; throws
+/// std::invalid_argument for one beyond a kilometre or 1000 m/s (the tool's length bound).
 State initial_displacements(const Model& model, const RunOptions& opts) {
   State y0 = State::Zero();
   if (opts.initial_state) {
     y0 = *opts.initial_state;
     y0.head<kDof>() -= model.static_positions();
+    for (int i = 0; i < kState; ++i) {
+      if (!(std::abs(y0[i]) <= 1e3)) {
+        std::ostringstream os;
+        os << "option initial_state[" << i << "] = " << (*opts.initial_state)[i]
+           << (i < kDof ? " m is " : " m/s is ") << y0[i]
+           << (i < kDof ? " m from the static state: must be within 1000 m"
+                        : " m/s: must be within 1000 m/s");
+        throw std::invalid_argument(os.str());
+      }
+    }
   }
   return y0;
 }
@@ -230,7 +242,8 @@ void EventLoop::finish() {
 
 RunResult simulate(const Model& model, const RunOptions& opts,
                    const InterruptCheck& interrupted) {
-  opts.validate();
+  opts.validate(model.params());
+  initial_displacements(model, opts);  // checked before any allocation
   RunResult r;
   EventLoop(model, opts, interrupted, r).run();
   return r;

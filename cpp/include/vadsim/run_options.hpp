@@ -6,6 +6,7 @@
 
 #include <optional>
 
+#include "vadsim/params.hpp"
 #include "vadsim/types.hpp"
 
 namespace vadsim {
@@ -53,8 +54,11 @@ struct RunOptions {
   /// kEventsPerCycle * ceil(cycles) + 1000.
   long event_budget() const;
 
-  /// @brief Throws std::invalid_argument naming the bad option.
+  /// @brief Throws std::invalid_argument naming the bad option (each has a physical range).
   void validate() const;
+  /// @brief validate(), and what depends on the model: the flow's excitation frequency must
+  /// lie in [kMinExcitationHz, kMaxExcitationHz] (Params::check_flow).
+  void validate(const Params& p) const;
 };
 
 }  // namespace vadsim

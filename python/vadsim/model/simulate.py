@@ -49,8 +49,9 @@ SUNDIALS call, the simulated time and the reason."""
 
 
 def _number(name: str, value: Any, *, integer: bool = False) -> float:
-    """``value`` as a float (or int), or a ValueError that names the argument."""
-    if isinstance(value, (bool, str, bytes)) or value is None:
+    """``value`` as a float (or int), or a ValueError that names the argument. Booleans are
+    not numbers here (``float(True)`` is 1.0, but ``simulate(p, True)`` is a mistake)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)) or value is None:
         raise ValueError(f"{name} = {value!r} must be a number")
     try:
         out = float(value)
@@ -190,10 +191,18 @@ def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None
         return None
     if isinstance(value, SimulationResult):
         value = value.y_end
+    bad = ValueError(f"initial_state = {value!r} must be 14 numbers or a result")
+    if isinstance(value, (str, bytes)):
+        raise bad
     try:
-        arr = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+        # Numbers only: not booleans (float(True) is 1.0) nor strings that float() would take.
+        if raw.dtype.kind not in "iuf" or any(
+                isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).flat):
+            raise bad
+        arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"initial_state = {value!r} must be 14 numbers or a result") from None
+        raise bad from None
     if arr.shape != (14,):
         raise ValueError(f"initial_state must have 14 entries [x1..x7, v1..v7], got {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -230,7 +239,9 @@ def simulate(
         A preset name (``"7in-cde"``, ``"7in-rc"``, ``"9.5in-pdc"``), a :class:`Preset`, a
         mapping of parameters (missing ones from ``7in-cde``) or core ``Params``.
     flow_gpm
-        Mud flow (gal/min); the excitation frequency is ``alpha * Q / (2 pi)``.
+        Mud flow (gal/min); the excitation frequency is ``alpha * Q / (2 pi)`` and must lie
+        in 0.1 to 2000 Hz (``_core.EXCITATION_HZ_RANGE``): 0.94 to 18756 gal/min for the 7in
+        tool (``Params.flow_range_gpm()`` for others).
     cycles, analyse_cycles
         Run length and steady window, in excitation cycles (dissertation: 400 and 200).
     overrides
@@ -301,7 +312,7 @@ def simulate(
             raise ValueError(f"wob_klbf = {wob_klbf} must be finite and >= 0")
         params.wob = params.wob * wob / preset.wob_klbf
         params.validate()
-    flow = _number("flow_gpm", flow_gpm)
+    flow = _flow(params, flow_gpm)
     for i, e in enumerate(extras):
         if not (isinstance(e, _core.ExtraForce) or callable(getattr(e, "build", None))):
             raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...) "
@@ -319,8 +330,23 @@ def simulate(
                         output_rate_hz=output_rate_hz, summary_rate_hz=summary_rate_hz,
                         max_steps=budgets["max_steps"], max_events=budgets["max_events"],
                         initial_state=initial_state)
+    opts.validate(params)  # what depends on the model (the flow range, checked above)
     r = _core.simulate(core_model, opts)
     return _result(r, params, preset, flow, cycles, analyse_cycles)
+
+
+def _flow(params: _core.Params, flow_gpm: Any) -> float:
+    """The flow rate, within the range whose excitation a run can resolve (from alpha)."""
+    flow = _number("flow_gpm", flow_gpm)
+    lo, hi = params.flow_range_gpm()
+    if not lo <= flow <= hi:
+        f_lo, f_hi = _core.EXCITATION_HZ_RANGE
+        got = f", not {params.excitation_hz(flow):.3g} Hz" if math.isfinite(flow) else ""
+        raise ValueError(
+            f"flow_gpm = {flow_gpm!r} must be in [{lo:.4g}, {hi:.4g}] gal/min: with alpha = "
+            f"{params.alpha:.4g} (rad/s)/(gal/min) the excitation must be in [{f_lo:g}, "
+            f"{f_hi:g}] Hz{got}")
+    return flow
 
 
 def _budget(name: str, value: Any) -> int:
