@@ -458,6 +458,18 @@ def test_ranges_are_published_and_hold_the_presets():
         assert np.all(np.isfinite(r.y_end))
 
 
+def test_shared_checks_refuse_booleans():
+    from vadsim import _checks
+
+    for value in (True, False, np.bool_(True)):
+        with pytest.raises(ValueError, match="fs_hz"):
+            _checks.number("fs_hz", value)
+        with pytest.raises(ValueError, match="fs_hz"):
+            _checks.finite_positive("fs_hz", value)
+    assert _checks.number("fs_hz", 3) == 3.0
+    assert _checks.finite_positive("fs_hz", np.float32(2.5)) == 2.5
+
+
 def test_solver_error_on_step_budget():
     assert issubclass(vadsim.SolverError, RuntimeError)
     with pytest.raises(vadsim.SolverError, match=r"t =") as info:
