@@ -18,6 +18,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from vadsim import _core
 from vadsim.data import table_2_1
 
@@ -250,7 +252,7 @@ def _checked_overrides(overrides: Mapping[str, Any]) -> dict[str, float]:
             close = [n for n in names if n.lower() == str(key).lower()]
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise ValueError(f"unknown parameter {key!r}{hint}")
-        if isinstance(value, (bool, str, bytes)):  # float() takes True and "1e5"
+        if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a mistake, not 1
             raise ValueError(f"parameter {key} = {value!r} is not a number")
         try:
             out[key] = float(value)
