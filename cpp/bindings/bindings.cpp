@@ -56,6 +56,8 @@ void bind_params(py::module_& m) {
       .def("validate", &Params::validate)
       .def("gap", &Params::gap)
       .def("excitation_hz", &Params::excitation_hz, py::arg("flow_gpm"))
+      .def("flow_range_gpm", &Params::flow_range_gpm,
+           "The flow rates (gal/min) whose excitation lies in EXCITATION_HZ_RANGE")
       .def("get", [](const Params& p, const std::string& n) { return get_param(p, n); })
       .def("set", [](Params& p, const std::string& n, double v) { set_param(p, n, v); })
       .def(py::pickle(
@@ -84,7 +86,7 @@ void bind_params(py::module_& m) {
                          : info.rule == ParamInfo::Rule::NonNegative ? "non-negative"
                          : info.rule == ParamInfo::Rule::Exponent    ? "exponent"
                                                                      : "finite";
-      out.append(py::make_tuple(info.name, info.unit, info.meaning, rule));
+      out.append(py::make_tuple(info.name, info.unit, info.meaning, rule, info.lo, info.hi));
     }
     return out;
   });
@@ -154,7 +156,11 @@ void bind_run_options(py::module_& m) {
       .def_readwrite("max_steps", &RunOptions::max_steps)
       .def_readwrite("max_events", &RunOptions::max_events)
       .def_readwrite("initial_state", &RunOptions::initial_state)
-      .def("validate", &RunOptions::validate);
+      .def("step_budget", &RunOptions::step_budget)
+      .def("event_budget", &RunOptions::event_budget)
+      .def("validate", py::overload_cast<>(&RunOptions::validate, py::const_))
+      .def("validate", py::overload_cast<const Params&>(&RunOptions::validate, py::const_),
+           py::arg("params"));
 }
 
 /// @brief The result types, read-only: numpy views of the C++ arrays.
@@ -216,17 +222,46 @@ void bind_results(py::module_& m) {
       });
 }
 
+/// @brief True on the interpreter's main thread, the only one where Python runs signal
+/// handlers (PyErr_CheckSignals does nothing elsewhere).
+bool on_main_thread() {
+  const auto main = py::module_::import("threading").attr("main_thread")().attr("ident");
+  return main.cast<unsigned long>() == PyThread_get_thread_ident();
+}
+
+/// @brief Ctrl-C during a run: every kInterruptCheckEvery steps the run takes the GIL back for
+/// a moment and lets Python run its pending signal handlers. A handler that raises (SIGINT's
+/// default raises KeyboardInterrupt) stops the run, and its exception is raised by simulate.
+/// Only on the main thread: elsewhere Python runs no handlers, so a run in a worker thread
+/// has no check and goes on to its end (the main thread gets the KeyboardInterrupt).
+bool python_signal_pending() {
+  py::gil_scoped_acquire gil;
+  return PyErr_CheckSignals() != 0;
+}
+
 /// @brief simulate with the GIL released, so Python threads run simulations in parallel.
 void bind_simulate(py::module_& m) {
   m.def(
       "simulate",
       [](const Model& model, const RunOptions& opts) {
-        py::gil_scoped_release release;
-        return simulate(model, opts);
+        const InterruptCheck check = on_main_thread() ? InterruptCheck(python_signal_pending)
+                                                      : InterruptCheck();
+        try {
+          py::gil_scoped_release release;
+          return simulate(model, opts, check);
+        } catch (const Interrupted& e) {
+          // The GIL is held again, and the signal handler's exception is pending: raise it,
+          // with a note that says how far the run got.
+          if (!PyErr_Occurred()) PyErr_SetNone(PyExc_KeyboardInterrupt);
+          py::error_already_set err;
+          err.value().attr("add_note")(e.what());
+          throw err;
+        }
       },
       py::arg("model"), py::arg("options"),
       "Run the model (GIL released). Raises SolverError on solver failure, ValueError on bad "
-      "options.");
+      "options, and the exception of a signal handler (KeyboardInterrupt for Ctrl-C) when a "
+      "signal arrives during a run on the main thread.");
 }
 
 }  // namespace
@@ -235,6 +270,7 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "vadsim C++ core: the 7-DOF vibro-impact model integrated by CVODE";
   m.attr("N_DOF") = kDof;
   m.attr("N_SURFACES") = kSurfaces;
+  m.attr("EXCITATION_HZ_RANGE") = py::make_tuple(kMinExcitationHz, kMaxExcitationHz);
 #ifdef VADSIM_VERSION
   m.attr("__version__") = VADSIM_VERSION;  // pyproject.toml's, passed in by CMake
 #endif

@@ -15,6 +15,17 @@ SolverError::SolverError(const std::string& call, double t, int flag, const std:
       t_(t),
       flag_(flag) {}
 
+Interrupted::Interrupted(double t, double t_end, long steps)
+    : std::runtime_error([&] {
+        std::ostringstream os;
+        os << "simulation interrupted at t = " << t << " s of t_end = " << t_end << " s, after "
+           << steps << " steps";
+        return os.str();
+      }()),
+      t_(t),
+      t_end_(t_end),
+      steps_(steps) {}
+
 void fail_option(const char* name, double value, const char* why) {
   std::ostringstream os;
   os << "option " << name << " = " << value << " " << why;

@@ -1,6 +1,7 @@
 #include "vadsim/extra_force.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace vadsim {
@@ -12,24 +13,29 @@ void check_dof(int dof, const char* what, bool allow_ground) {
                                 " is not a degree of freedom (1..7)");
   }
 }
-void check_nonneg(double v, const char* what) {
-  if (!(v >= 0) || !std::isfinite(v))
-    throw std::invalid_argument(std::string(what) + " = " + std::to_string(v) +
-                                " must be finite and >= 0");
+/// 0 or a normal number in [lo, hi] (the ranges of the model's own parameters, params.cpp).
+void check_range(double v, const char* what, double lo, double hi, const char* unit,
+                 bool zero_ok) {
+  if ((zero_ok && v == 0) || (v >= lo && v <= hi)) return;  // false for NaN
+  std::ostringstream os;
+  os << what << " = " << v << " must be " << (zero_ok ? "0 or " : "") << "in [" << lo << ", "
+     << hi << "] " << unit;
+  throw std::invalid_argument(os.str());
 }
 }  // namespace
 
 HydraulicForce::HydraulicForce(int dof, double c) : dof_(dof), c_(c) {
   check_dof(dof, "hydraulic_force dof", false);
-  if (!std::isfinite(c)) throw std::invalid_argument("hydraulic_force c must be finite");
+  // c Q^2 at the highest flow (~2e4 gal/min) stays below 1e9 N/kg, the bound of Fo and wob.
+  check_range(c, "hydraulic_force c", -1.0, 1.0, "(N/kg)/(gal/min)^2", true);
 }
 
 CoulombFriction::CoulombFriction(int a, int b, double force, double v_eps)
     : a_(a), b_(b), force_(force), v_eps_(v_eps) {
   check_dof(a, "coulomb_friction dof_a", false);
   check_dof(b, "coulomb_friction dof_b", true);
-  check_nonneg(force, "coulomb_friction force");
-  if (!(v_eps > 0)) throw std::invalid_argument("coulomb_friction v_eps must be > 0");
+  check_range(force, "coulomb_friction force", 1e-9, 1e9, "N/kg", true);
+  check_range(v_eps, "coulomb_friction v_eps", 1e-9, 1e3, "m/s", false);
 }
 
 void CoulombFriction::add_force(double, double, const Vec7CRef&, const Vec7CRef& v,
@@ -56,8 +62,8 @@ void CoulombFriction::add_jacobian(double, double, const Vec7CRef&, const Vec7CR
 SpringDashpot::SpringDashpot(int a, int b, double k, double c) : a_(a), b_(b), k_(k), c_(c) {
   check_dof(a, "spring_dashpot dof_a", false);
   check_dof(b, "spring_dashpot dof_b", true);
-  check_nonneg(k, "spring_dashpot k");
-  check_nonneg(c, "spring_dashpot c");
+  check_range(k, "spring_dashpot k", 1e-6, 1e15, "N/m/kg", true);
+  check_range(c, "spring_dashpot c", 1e-9, 1e12, "N s/m/kg", true);
 }
 
 void SpringDashpot::add_force(double, double, const Vec7CRef& u, const Vec7CRef& v,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "vadsim/contact_tracker.hpp"
@@ -66,12 +67,23 @@ class Segment final : public Trajectory {
   State y0_ = State::Zero();
 };
 
-/// @brief The initial state in displacements from the static equilibrium.
+/// @brief The initial state in displacements from the static equilibrium; throws
+/// std::invalid_argument for one beyond a kilometre or 1000 m/s (the tool's length bound).
 State initial_displacements(const Model& model, const RunOptions& opts) {
   State y0 = State::Zero();
   if (opts.initial_state) {
     y0 = *opts.initial_state;
     y0.head<kDof>() -= model.static_positions();
+    for (int i = 0; i < kState; ++i) {
+      if (!(std::abs(y0[i]) <= 1e3)) {
+        std::ostringstream os;
+        os << "option initial_state[" << i << "] = " << (*opts.initial_state)[i]
+           << (i < kDof ? " m is " : " m/s is ") << y0[i]
+           << (i < kDof ? " m from the static state: must be within 1000 m"
+                        : " m/s: must be within 1000 m/s");
+        throw std::invalid_argument(os.str());
+      }
+    }
   }
   return y0;
 }
@@ -88,14 +100,16 @@ State absolute_tolerances(const RunOptions& opts) {
 class EventLoop {
  public:
   /// @brief Sizes the recorder and creates CVODE; throws before any step on bad input.
-  EventLoop(const Model& model, const RunOptions& opts, RunResult& r);
+  EventLoop(const Model& model, const RunOptions& opts, const InterruptCheck& interrupted,
+            RunResult& r);
   EventLoop(const EventLoop&) = delete;
   EventLoop& operator=(const EventLoop&) = delete;
   /// @brief The whole run: step, record, switch contacts at events, restart, until t_end.
   void run();
 
  private:
-  /// @brief One CVODE step within the run's step budget.
+  /// @brief One CVODE step within the run's step budget; every kInterruptCheckEvery steps,
+  /// asks the interrupt check (throws Interrupted when it says stop).
   int take_step(double& tret);
   /// @brief After a step without roots: if a contact switched unreported inside it, record
   /// up to the switch, apply it and restart there (true); else false.
@@ -112,8 +126,10 @@ class EventLoop {
 
   const Model& model_;
   const RunOptions& opts_;
+  const InterruptCheck& interrupted_;
   RunResult& r_;
   const Horizon horizon_;
+  const long max_steps_;
   const long max_events_;
   Recorder recorder_;
   ContactTracker contacts_;
@@ -124,13 +140,15 @@ class EventLoop {
   long calls_ = 0, stalled_ = 0;
 };
 
-EventLoop::EventLoop(const Model& model, const RunOptions& opts, RunResult& r)
+EventLoop::EventLoop(const Model& model, const RunOptions& opts,
+                     const InterruptCheck& interrupted, RunResult& r)
     : model_(model),
       opts_(opts),
+      interrupted_(interrupted),
       r_(r),
       horizon_(model.params(), opts),
-      max_events_(opts.max_events > 0 ? opts.max_events
-                                      : static_cast<long>(200 * std::ceil(opts.cycles)) + 1000),
+      max_steps_(opts.step_budget()),
+      max_events_(opts.event_budget()),
       recorder_(model, opts, horizon_, r),
       contacts_(model, opts.flow_gpm, r.events),
       callbacks_{&model, opts.flow_gpm, &contacts_},
@@ -163,11 +181,13 @@ void EventLoop::run() {
 
 int EventLoop::take_step(double& tret) {
   const int flag = solver_.step(horizon_.t_end, tret);
-  if (++calls_ > opts_.max_steps) {
+  if (++calls_ > max_steps_) {
     throw SolverError("CVode", tret, 0,
-                      "step budget max_steps = " + std::to_string(opts_.max_steps) +
+                      "step budget max_steps = " + std::to_string(max_steps_) +
                           " exhausted: the run is too stiff or chatters");
   }
+  if (interrupted_ && calls_ % kInterruptCheckEvery == 0 && interrupted_())
+    throw Interrupted(tret, horizon_.t_end, calls_);
   return flag;
 }
 
@@ -220,10 +240,12 @@ void EventLoop::finish() {
 
 }  // namespace
 
-RunResult simulate(const Model& model, const RunOptions& opts) {
-  opts.validate();
+RunResult simulate(const Model& model, const RunOptions& opts,
+                   const InterruptCheck& interrupted) {
+  opts.validate(model.params());
+  initial_displacements(model, opts);  // checked before any allocation
   RunResult r;
-  EventLoop(model, opts, r).run();
+  EventLoop(model, opts, interrupted, r).run();
   return r;
 }
 

@@ -8,7 +8,8 @@ namespace vadsim {
 
 namespace {
 
-/// wob / k, refusing a support that cannot carry the weight on bit.
+/// wob / k, refusing a support that cannot carry the weight on bit, or only by a static
+/// deflection beyond 1 km (the tool's lengths are bounded the same way, Params::validate).
 double compliance_term(double wob, double k, const char* name) {
   if (wob == 0) return 0.0;
   if (k == 0) {
@@ -16,7 +17,14 @@ double compliance_term(double wob, double k, const char* name) {
     os << "parameter " << name << " = 0 gives no static on-bottom equilibrium under wob = " << wob;
     throw std::invalid_argument(os.str());
   }
-  return wob / k;
+  const double deflection = wob / k;
+  if (deflection > 1e3) {
+    std::ostringstream os;
+    os << "parameter " << name << " = " << k << " N/m/kg gives a static deflection wob / " << name
+       << " = " << deflection << " m under wob = " << wob << " N/kg: must be <= 1000 m";
+    throw std::invalid_argument(os.str());
+  }
+  return deflection;
 }
 
 void add_link(Mat7& m, int i, int j, double k) {

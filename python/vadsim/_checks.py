@@ -9,7 +9,10 @@ import numpy.typing as npt
 
 
 def number(name: str, value: object) -> float:
-    """``value`` as a float, or a ValueError naming ``name``."""
+    """``value`` as a float, or a ValueError naming ``name``. Booleans are not numbers here,
+    though ``float(True)`` is 1.0: ``fs=True`` is a mistake, not a rate of 1 Hz."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
     try:
         return float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):

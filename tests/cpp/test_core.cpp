@@ -989,6 +989,55 @@ void test_bad_input() {
     CHECK_THROWS(std::invalid_argument, p.validate(), needle);
     CHECK_THROWS(std::invalid_argument, Model{p}, needle);
   }
+  // Outside the physical ranges: subnormal masses and stiffnesses, lengths near the limits
+  // of double precision, or beyond a kilometre with l0.
+  const double subnormal = std::numeric_limits<double>::denorm_min();
+  for (const Bad& b : {Bad{"m3", subnormal}, Bad{"kI", subnormal}, Bad{"cS", 1e-300},
+                       Bad{"L1", 1e308}, Bad{"LR", 1e300}, Bad{"L3", 2000.0}, Bad{"l0", 1e4},
+                       Bad{"alpha", 1e300}, Bad{"Fo", 1e300}, Bad{"m1", 1e300}}) {
+    const Params p = with(b.name, b.value);
+    const std::string needle = std::string(b.name) + " ";
+    CHECK_THROWS(std::invalid_argument, p.validate(), needle);
+  }
+  {
+    // A static deflection wob / k beyond a kilometre names the stiffness.
+    Params p;
+    p.kR = 1e-3;
+    CHECK_THROWS(std::invalid_argument, Model{p}, "kR ");
+  }
+  {
+    // The flow's range follows from alpha: the excitation must be in [0.1, 2000] Hz. It is
+    // refused naming flow_gpm with the range, not a grid size or a CVODE failure at t = 0.
+    const Model m{Params{}};
+    const auto [lo, hi] = m.params().flow_range_gpm();
+    CHECK(std::abs(lo - 2 * M_PI * 0.1 / 0.67) < 1e-12 && std::abs(hi - 2 * M_PI * 2000 / 0.67)
+          < 1e-9, "flow range ", lo, " ", hi);
+    for (double flow : {1e-3, 0.9, 1.9e4, 1e300}) {
+      RunOptions o;
+      o.flow_gpm = flow;
+      o.cycles = 2;
+      o.analyse_cycles = 1;
+      CHECK_THROWS(std::invalid_argument, simulate(m, o), "flow_gpm = ");
+      CHECK_THROWS(std::invalid_argument, o.validate(m.params()), "gal/min");
+    }
+    for (double atol : {subnormal, 1e-21, 10.0}) {
+      RunOptions o;
+      o.atol = atol;
+      CHECK_THROWS(std::invalid_argument, simulate(m, o), "atol");
+    }
+    RunOptions o;
+    o.summary_rate_hz = subnormal;
+    CHECK_THROWS(std::invalid_argument, o.validate(), "summary_rate_hz");
+    o = RunOptions{};
+    o.output_rate_hz = subnormal;
+    CHECK_THROWS(std::invalid_argument, o.validate(), "output_rate_hz");
+    o = RunOptions{};
+    o.max_step = subnormal;
+    CHECK_THROWS(std::invalid_argument, o.validate(), "max_step");
+    o = RunOptions{};
+    o.peak_window_s = subnormal;
+    CHECK_THROWS(std::invalid_argument, o.validate(), "peak_window_s");
+  }
   {
     // kR = 0 cannot carry a weight on bit: no static equilibrium. It is a combination of two
     // valid values, refused where the equilibrium is built (the Model constructor).
@@ -1064,6 +1113,44 @@ void test_bad_input() {
   }
 }
 
+/// The interrupt check: asked every kInterruptCheckEvery steps; true stops the run with
+/// Interrupted (how far it got), false leaves the run bit for bit as it is without a check.
+void test_interrupt() {
+  const Model m{Params{}};
+  RunOptions o;
+  o.cycles = 200;
+  o.analyse_cycles = 10;
+  o.record = Record::None;
+  o.summary_rate_hz = 2000;
+  const RunResult plain = simulate(m, o);
+  CHECK(plain.stats.steps > 3 * kInterruptCheckEvery, "the run must outlast three checks: ",
+        plain.stats.steps, " steps");
+
+  long asked = 0;
+  const RunResult checked = simulate(m, o, [&asked] {
+    ++asked;
+    return false;
+  });
+  CHECK(asked > 0 && asked <= plain.stats.steps / kInterruptCheckEvery + 1,
+        "checks asked: ", asked, " for ", plain.stats.steps, " steps");
+  CHECK(checked.y_end == plain.y_end && checked.stats.steps == plain.stats.steps &&
+            checked.events.size() == plain.events.size(),
+        "a check that never stops must not change the run");
+
+  asked = 0;
+  bool thrown = false;
+  try {
+    simulate(m, o, [&asked] { return ++asked == 3; });
+  } catch (const Interrupted& e) {
+    thrown = true;
+    CHECK(e.steps() == 3 * kInterruptCheckEvery, "stopped after ", e.steps(), " steps");
+    CHECK(e.t() > 0 && e.t() < e.t_end(), "stopped at t = ", e.t(), " of ", e.t_end());
+    CHECK(std::string(e.what()).find("interrupted at t = ") != std::string::npos, e.what());
+  }
+  CHECK(thrown, "the run was not interrupted");
+  CHECK(asked == 3, "checks asked after the stop: ", asked);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1076,6 +1163,7 @@ int main(int argc, char** argv) {
       {"jacobian_fd", test_jacobian_fd},
       {"contact_laws", test_contact_laws},
       {"bad_input", test_bad_input},
+      {"interrupt", test_interrupt},
   };
   if (argc != 2 || !tests.count(argv[1])) {
     std::fprintf(stderr, "usage: %s TEST\ntests:", argc > 0 ? argv[0] : "vadsim_tests");

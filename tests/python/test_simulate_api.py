@@ -2,8 +2,8 @@
 
 Covers the shape of a SimulationResult, physics sanity checks against the equations and static
 state of MODEL.md, the summary (J*, 200 ms peaks) against the recorded time series, every kind
-of bad input (ValueError naming it), solver budgets (SolverError), continuation, presets,
-parameter overrides, contact laws and extra forces.
+of bad input (ValueError naming it), solver budgets (SolverError), Ctrl-C during a run,
+continuation, presets, parameter overrides, contact laws and extra forces.
 
 Runs are short (20 cycles, 10 analysed) unless a test needs more.
 """
@@ -11,7 +11,12 @@ Runs are short (20 cycles, 10 analysed) unless a test needs more.
 from __future__ import annotations
 
 import math
+import os
 import re
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pandas as pd
@@ -309,6 +314,22 @@ BAD_INPUTS = [
     ("exponent out of range", _sim("7in-cde", 200, overrides={"hc_n": 5.0}), r"\bhc_n\b"),
     ("zero rock stiffness", _sim("7in-cde", 200, overrides={"kR": 0.0}), r"\bkR\b"),
     ("model of wrong type", _sim(42, 200), r"\bmodel\b"),
+    ("bool parameter", _sim("7in-cde", 200, overrides={"kS": True}), r"\bkS\b"),
+    # outside the physical ranges: numbers that break the arithmetic, not just the physics
+    ("subnormal mass", _sim("7in-cde", 200, overrides={"m3": 5e-324}),
+     r"parameter m3 = .* must be in \[1e-06, 1e\+06\] m\*"),
+    ("subnormal stiffness", _sim("7in-cde", 200, overrides={"kI": 5e-324}),
+     r"parameter kI = .* must be 0 or in \[.*\] N/m/kg"),
+    ("subnormal damping", _sim("7in-cde", 200, overrides={"cS": 5e-324}), r"\bcS\b.*N s/m/kg"),
+    ("huge mass", _sim("7in-cde", 200, overrides={"m1": 1e300}), r"\bm1\b"),
+    ("length near 1e308", _sim("7in-cde", 200, overrides={"L1": 1e308}), r"\bL1\b.*l0"),
+    ("length beyond 1 km", _sim("7in-cde", 200, overrides={"L3": 2000.0}),
+     r"\bL3\b.* must be <= 1000 m"),
+    ("huge l0", _sim("7in-cde", 200, overrides={"l0": 1e4}), r"\bl0\b.*\bm\b"),
+    ("huge static deflection", _sim("7in-cde", 200, overrides={"kR": 1e-3}),
+     r"\bkR\b.*static deflection"),
+    ("subnormal drag", _sim("7in-cde", 200, overrides={"cD": 5e-324}), r"\bcD\b"),
+    ("huge force", _sim("7in-cde", 200, overrides={"Fo": 1e300}), r"\bFo\b.*N/kg"),
     # flow
     ("zero flow", _sim("7in-cde", 0.0), r"flow_gpm"),
     ("negative flow", _sim("7in-cde", -200.0), r"flow_gpm"),
@@ -316,18 +337,34 @@ BAD_INPUTS = [
     ("inf flow", _sim("7in-cde", INF), r"flow_gpm"),
     ("string flow", _sim("7in-cde", "fast"), r"flow_gpm"),
     ("None flow", _sim("7in-cde", None), r"flow_gpm"),
+    ("bool flow", _sim("7in-cde", True), r"flow_gpm"),
+    ("tiny flow", _sim("7in-cde", 1e-3),
+     r"^flow_gpm = 0\.001 must be in \[0\.9378, 1\.876e\+04\] gal/min.*0\.1, 2000\] Hz"),
+    ("huge flow", _sim("7in-cde", 1e300), r"^flow_gpm = 1e\+300 must be in .* gal/min"),
+    ("flow too slow for alpha", _sim("7in-cde", 200, overrides={"alpha": 1e-5}),
+     r"^flow_gpm = 200"),
     # run options
     ("zero cycles", _sim("7in-cde", 200, cycles=0, analyse_cycles=0), r"\bcycles\b"),
     ("negative cycles", _sim("7in-cde", 200, cycles=-4, analyse_cycles=2), r"\bcycles\b"),
     ("NaN cycles", _sim("7in-cde", 200, cycles=NAN), r"\bcycles\b"),
     ("too many cycles", _sim("7in-cde", 200, cycles=2e6), r"\bcycles\b"),
     ("string cycles", _sim("7in-cde", 200, cycles="many"), r"\bcycles\b"),
+    ("bool cycles", _sim("7in-cde", 200, cycles=True), r"\bcycles\b"),
+    ("bool analyse_cycles", _sim("7in-cde", 200, analyse_cycles=True), r"\banalyse_cycles\b"),
+    ("bool rtol", _sim("7in-cde", 200, rtol=True), r"\brtol\b"),
     ("analyse > cycles", _sim("7in-cde", 200, cycles=4, analyse_cycles=5), r"analyse_cycles"),
     ("zero analyse", _sim("7in-cde", 200, analyse_cycles=0), r"analyse_cycles"),
     ("rtol zero", _sim("7in-cde", 200, rtol=0.0), r"\brtol\b"),
     ("rtol one", _sim("7in-cde", 200, rtol=1.0), r"\brtol\b"),
     ("rtol NaN", _sim("7in-cde", 200, rtol=NAN), r"\brtol\b"),
     ("atol zero", _sim("7in-cde", 200, atol=0.0), r"\batol\b"),
+    ("atol subnormal", _sim("7in-cde", 200, atol=5e-324), r"\batol\b.*\[1e-20, 1\] m"),
+    ("atol huge", _sim("7in-cde", 200, atol=10.0), r"\batol\b"),
+    ("rtol too tight", _sim("7in-cde", 200, rtol=1e-16), r"\brtol\b"),
+    ("max_step subnormal", _sim("7in-cde", 200, max_step=5e-324), r"\bmax_step\b"),
+    ("output rate subnormal", _sim("7in-cde", 200, record="all", output_rate_hz=5e-324),
+     r"output_rate_hz"),
+    ("summary rate subnormal", _sim("7in-cde", 200, summary_rate_hz=5e-324), r"summary_rate_hz"),
     ("negative max_step", _sim("7in-cde", 200, max_step=-1.0), r"\bmax_step\b"),
     ("bad method", _sim("7in-cde", 200, method="rk4"), r"\bmethod\b"),
     ("bad record", _sim("7in-cde", 200, record="some"), r"\brecord\b"),
@@ -337,6 +374,8 @@ BAD_INPUTS = [
     ("float max_steps", _sim("7in-cde", 200, max_steps=1.5), r"\bmax_steps\b"),
     ("huge max_steps", _sim("7in-cde", 200, max_steps=2**70), r"\bmax_steps\b"),
     ("negative max_events", _sim("7in-cde", 200, max_events=-1), r"\bmax_events\b"),
+    ("bool max_steps", _sim("7in-cde", 200, max_steps=True), r"\bmax_steps\b"),
+    ("bool max_events", _sim("7in-cde", 200, max_events=False), r"\bmax_events\b"),
     # initial state
     ("initial_state too short", _sim("7in-cde", 200, initial_state=np.zeros(7)),
      r"initial_state"),
@@ -347,6 +386,14 @@ BAD_INPUTS = [
     ("initial_state inf", _sim("7in-cde", 200, initial_state=np.r_[np.zeros(13), INF]),
      r"initial_state"),
     ("initial_state string", _sim("7in-cde", 200, initial_state="static"), r"initial_state"),
+    ("initial_state bools", _sim("7in-cde", 200, initial_state=[True] * 14), r"initial_state"),
+    ("initial_state number strings", _sim("7in-cde", 200, initial_state=["1"] * 14),
+     r"initial_state"),
+    ("initial_state ragged", _sim("7in-cde", 200, initial_state=[[1.0], [1.0, 2.0]]),
+     r"initial_state"),
+    ("initial_state far away", _sim("7in-cde", 200, initial_state=np.r_[np.full(7, 1e4),
+                                                                        np.zeros(7)]),
+     r"initial_state\[0\].*1000 m"),
     # contact law
     ("unknown law", _sim("7in-cde", 200, law="hertz"), r"hertz"),
     # extra forces
@@ -365,6 +412,10 @@ BAD_INPUTS = [
     ("zero v_eps", _ef("friction", force=1.0, v_eps=0.0), r"\bv_eps\b"),
     ("negative dashpot k", _ef("dashpot", body="bit", k=-1.0), r"\bk\b"),
     ("NaN dashpot c", _ef("dashpot", body="bit", c=NAN), r"\bc\b"),
+    ("bool hydraulic c", _ef("hydraulic", c=True), r"\bc\b"),
+    ("huge hydraulic c", _ef("hydraulic", c=1e300), r"\bc\b"),
+    ("subnormal v_eps", _ef("friction", force=1.0, v_eps=5e-324), r"\bv_eps\b"),
+    ("subnormal dashpot k", _ef("dashpot", body="bit", k=5e-324), r"\bk\b"),
     ("extras not an extra force", _sim("7in-cde", 200, extras=["hydraulic"]), r"\bextra"),
     ("extras None", _sim("7in-cde", 200, extras=[None]), r"\bextra"),
     # weight on bit
@@ -372,6 +423,7 @@ BAD_INPUTS = [
     ("NaN wob_klbf", _sim("7in-cde", 200, wob_klbf=NAN), r"wob_klbf"),
     ("inf wob_klbf", _sim("7in-cde", 200, wob_klbf=INF), r"wob_klbf"),
     ("string wob_klbf", _sim("7in-cde", 200, wob_klbf="8"), r"wob_klbf"),
+    ("bool wob_klbf", _sim("7in-cde", 200, wob_klbf=True), r"wob_klbf"),
     ("wob_klbf without preset", _sim({"kS": 2e5}, 200, wob_klbf=4.0), r"wob_klbf"),
 ]
 
@@ -386,6 +438,38 @@ def test_bad_input_raises_value_error_naming_it(call, pattern):
     assert re.search(pattern, msg), f"message does not name the bad input: {msg!r}"
 
 
+def test_ranges_are_published_and_hold_the_presets():
+    ranges = vadsim.presets.param_ranges()
+    assert set(ranges) == set(vadsim.presets.param_names())
+    for preset in vadsim.PRESETS.values():
+        for name, value in preset.params.items():
+            rule, lo, hi = ranges[name]
+            assert (rule == "non-negative" and value == 0) or lo <= value <= hi, (name, value)
+            if rule in ("positive", "non-negative") and not name.startswith("L"):
+                # Masses, stiffnesses, damping, forces: normal numbers only (a subnormal
+                # travel LOn is harmless: it is added, never divided by).
+                assert lo >= 2.2250738585072014e-308, name
+    lo, hi = vadsim.make_params("7in-cde").flow_range_gpm()
+    assert lo < 1 and hi > 5000  # the flows anyone drills with
+    # Valid runs at both ends of the flow range.
+    for flow in (lo * 1.0001, hi * 0.9999):
+        r = vadsim.simulate("7in-cde", flow, cycles=2, analyse_cycles=1, record="none",
+                            summary_rate_hz=50000)
+        assert np.all(np.isfinite(r.y_end))
+
+
+def test_shared_checks_refuse_booleans():
+    from vadsim import _checks
+
+    for value in (True, False, np.bool_(True)):
+        with pytest.raises(ValueError, match="fs_hz"):
+            _checks.number("fs_hz", value)
+        with pytest.raises(ValueError, match="fs_hz"):
+            _checks.finite_positive("fs_hz", value)
+    assert _checks.number("fs_hz", 3) == 3.0
+    assert _checks.finite_positive("fs_hz", np.float32(2.5)) == 2.5
+
+
 def test_solver_error_on_step_budget():
     assert issubclass(vadsim.SolverError, RuntimeError)
     with pytest.raises(vadsim.SolverError, match=r"t =") as info:
@@ -398,6 +482,40 @@ def test_solver_error_on_step_budget():
 def test_solver_error_on_event_budget():
     with pytest.raises(vadsim.SolverError, match=r"t =.*max_events"):
         vadsim.simulate("7in-cde", 200, max_events=3, **TINY)
+
+
+def _budgets(cycles: float, **kw) -> tuple[int, int]:
+    o = vadsim._core.RunOptions()
+    o.cycles = cycles
+    for k, v in kw.items():
+        setattr(o, k, v)
+    return o.step_budget(), o.event_budget()
+
+
+def test_default_budgets_grow_with_the_run_length():
+    # What a run needs per cycle, counted on a 400-cycle run at the slowest tested flow rate
+    # of the 7in tool (most steps per cycle) and at the usual one.
+    need = {}
+    for flow in (5.0, 200.0):
+        r = vadsim.simulate("7in-cde", flow, cycles=400, analyse_cycles=10, record="none",
+                            summary_rate_hz=2000)
+        need[flow] = (r.stats["steps"], len(r.events))
+        steps_400, events_400 = _budgets(400)
+        assert steps_400 >= 5 * r.stats["steps"] and events_400 >= 5 * len(r.events)
+    # A 100000-cycle run needs 250 times as much: the default budgets give it that (and a
+    # margin), as they give it to 400 cycles; they used to be a fixed 2e7 steps.
+    ratio = 100000 / 400
+    steps_long, events_long = _budgets(100000)
+    for steps, events in need.values():
+        assert steps_long >= 5 * ratio * steps
+        assert events_long >= 5 * ratio * events
+    assert steps_long >= ratio * 20000 * 400  # 20000 steps per cycle
+    # Explicit budgets are honoured as given.
+    assert _budgets(100000, max_steps=1234, max_events=56) == (1234, 56)
+    with pytest.raises(vadsim.SolverError, match="max_steps = 50 "):
+        vadsim.simulate("7in-cde", 200, max_steps=50, **TINY)
+    with pytest.raises(ValueError, match=r"max_steps = 0 "):
+        vadsim.simulate("7in-cde", 200, max_steps=0, **TINY)
 
 
 # --------------------------------------------------------------------------------------------
@@ -566,3 +684,86 @@ def test_friction_and_dashpot_run(r200):
     null = vadsim.simulate("7in-cde", 200, extras=[vadsim.extra_force("dashpot", body="bit")],
                            **SHORT)
     np.testing.assert_array_equal(null.x, r200.x)
+
+
+# --------------------------------------------------------------------------------------------
+# Ctrl-C: a run on the main thread stops at the next interrupt check
+# --------------------------------------------------------------------------------------------
+
+# Hang guard only: an interrupted child ends in well under a second; a child that ignored the
+# signal would run its whole horizon (100000 cycles, minutes) and be killed here.
+HANG_GUARD_S = 60.0
+LONG_RUN = "cycles=100000, analyse_cycles=10, record='none', summary_rate_hz=2000"
+NOTE_RE = re.compile(r"simulation interrupted at t = (\S+) s of t_end = (\S+) s, after (\d+) "
+                     r"steps")
+
+
+def _child(code: str) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+
+
+def _interrupt_after_start(proc: subprocess.Popen) -> tuple[str, str]:
+    """Wait for the child's "started" line, send SIGINT, return (stdout, stderr)."""
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    assert line.strip() == "started", line + proc.stderr.read() if proc.stderr else ""
+    # The child enters the run a few milliseconds after printing; the pause makes it all but
+    # certain that the signal lands inside the run (the assertions below check that it did).
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    try:
+        out, err = proc.communicate(timeout=HANG_GUARD_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        pytest.fail(f"the child ignored SIGINT (hang guard {HANG_GUARD_S} s); stderr: {err}")
+    return line + out, err
+
+
+def test_ctrl_c_stops_a_run_on_the_main_thread():
+    proc = _child(f"""
+import vadsim
+print("started", flush=True)
+vadsim.simulate("7in-cde", 200, {LONG_RUN})
+print("finished", flush=True)
+""")
+    out, err = _interrupt_after_start(proc)
+    assert proc.returncode != 0
+    assert "finished" not in out
+    assert "KeyboardInterrupt" in err, err
+    # The note says where the run stopped: inside it, long before its end (counts, not time).
+    m = NOTE_RE.search(err)
+    assert m, f"no interrupt note (signal outside the run?): {err}"
+    t, t_end, steps = float(m.group(1)), float(m.group(2)), int(m.group(3))
+    assert t_end == pytest.approx(100000 / vadsim.presets.get_preset("7in-cde").params["alpha"]
+                                  / 200 * 2 * math.pi, rel=1e-5)
+    assert 0 < t < 0.5 * t_end
+    assert steps > 0 and steps % 2000 == 0  # stopped at an interrupt check
+
+
+def test_ctrl_c_with_a_run_in_a_worker_thread():
+    """Python runs signal handlers on the main thread only: the main thread gets the
+    KeyboardInterrupt, and a run in a worker thread is not checked and goes on to its end
+    (documented in vadsim.simulate)."""
+    proc = _child("""
+import time
+from concurrent.futures import ThreadPoolExecutor
+import vadsim
+ex = ThreadPoolExecutor(1)
+fut = ex.submit(vadsim.simulate, "7in-cde", 200, cycles=2000, analyse_cycles=10,
+                record="none", summary_rate_hz=2000)
+print("started", flush=True)
+try:
+    while True:
+        time.sleep(0.01)
+except KeyboardInterrupt:
+    print("main: KeyboardInterrupt", flush=True)
+r = fut.result()
+print("worker: cycles", round(r.window[1] * r.f_exc_hz, 6), flush=True)
+""")
+    out, err = _interrupt_after_start(proc)
+    assert proc.returncode == 0, err
+    assert "main: KeyboardInterrupt" in out, out + err
+    assert "worker: cycles 2000.0" in out, out + err

@@ -1,7 +1,8 @@
 #pragma once
 /// @file errors.hpp
-/// @brief The two ways a run can fail, kept apart from the solver and the options so that
-/// every layer (CVODE wrapper, event loop, recorder, bindings) reports failures the same way.
+/// @brief The ways a run can stop early (two failures and an interrupt), kept apart from the
+/// solver and the options so that every layer (CVODE wrapper, event loop, recorder, bindings)
+/// reports them the same way.
 
 #include <stdexcept>
 #include <string>
@@ -19,6 +20,20 @@ class SolverError : public std::runtime_error {
  private:
   double t_;
   int flag_;
+};
+
+/// @brief A run stopped because its interrupt check asked for it (Ctrl-C in Python): not a
+/// failure of the solver or of the input. Says how far the run got, in time and steps.
+class Interrupted : public std::runtime_error {
+ public:
+  Interrupted(double t, double t_end, long steps);
+  double t() const { return t_; }
+  double t_end() const { return t_end_; }
+  long steps() const { return steps_; }
+
+ private:
+  double t_, t_end_;
+  long steps_;
 };
 
 /// @brief Throws std::invalid_argument "option NAME = VALUE WHY": a bad option is the caller's

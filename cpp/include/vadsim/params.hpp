@@ -4,6 +4,7 @@
 /// (C++, bindings, presets, calibration) addresses a parameter by the same name.
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace vadsim {
@@ -48,17 +49,38 @@ struct Params {
   /// @brief Excitation frequency (Hz) at a flow rate (gal/min).
   double excitation_hz(double flow_gpm) const;
 
-  /// @brief Throws std::invalid_argument naming the first non-physical value.
+  /// @brief The flow rates (gal/min) whose excitation lies in [kMinExcitationHz,
+  /// kMaxExcitationHz]: 2 pi f / alpha at both ends.
+  std::pair<double, double> flow_range_gpm() const;
+
+  /// @brief Throws std::invalid_argument "option flow_gpm = ... must be in [lo, hi] gal/min"
+  /// for a flow outside flow_range_gpm() (or not a number).
+  void check_flow(double flow_gpm) const;
+
+  /// @brief Throws std::invalid_argument naming the first value outside its physical range
+  /// (param_table()), or a length beyond 1 km (|L| * l0).
   void validate() const;
 };
 
-/// @brief A numeric parameter's name, unit, meaning, and the rule it must obey.
+/// The excitation frequencies (Hz) a run can resolve. Below 0.1 Hz a cycle lasts more than
+/// 10 s: the default run (400 cycles, a 200-cycle window stored at 20 kHz) would be hours of
+/// simulated time and more stored samples than the recorder allows. Above 2 kHz the 20 kHz
+/// summary grid has fewer than 10 points per cycle. The 7in tool (alpha = 0.67) covers
+/// 0.94 to 18756 gal/min.
+constexpr double kMinExcitationHz = 0.1;
+constexpr double kMaxExcitationHz = 2000.0;
+
+/// @brief A numeric parameter's name, unit, meaning, and the range it must lie in.
+///
+/// Positive, Finite, Exponent: lo <= v <= hi. NonNegative: v == 0 or lo <= v <= hi (so a
+/// non-zero stiffness, damping or force is a normal number, never subnormal).
 struct ParamInfo {
   const char* name;
   const char* unit;
   const char* meaning;
   enum class Rule { Positive, NonNegative, Finite, Exponent } rule;
   double Params::*member;
+  double lo, hi;  ///< the physical range, in unit
 };
 
 /// @brief Every numeric parameter, in a fixed order (the order of Table 2.1, then l0, wob, law

@@ -6,6 +6,7 @@
 
 #include <optional>
 
+#include "vadsim/params.hpp"
 #include "vadsim/types.hpp"
 
 namespace vadsim {
@@ -33,12 +34,31 @@ struct RunOptions {
   double output_rate_hz = 20000; ///< stored time series (0: none)
   double summary_rate_hz = 20000;///< the grid of WindowSummary (MODEL.md "full resolution")
   double peak_window_s = 0.2;    ///< window of the peak statistics (dissertation section 3.2)
-  long max_steps = 20000000;     ///< budget, so that a pathological input cannot hang
-  long max_events = 0;           ///< 0: 200 per cycle
+  long max_steps = 0;   ///< step budget, so that a pathological input cannot hang; 0: default
+  long max_events = 0;  ///< contact event budget; 0: default
   std::optional<State> initial_state;  ///< absolute [x; v]; default: static equilibrium
 
-  /// @brief Throws std::invalid_argument naming the bad option.
+  /// Default step budget per cycle: a valid run takes 20 to 4000 steps per cycle (7in tool,
+  /// 1 to 5000 gal/min), so this only stops runs that are far off any valid one.
+  static constexpr long kStepsPerCycle = 20000;
+  /// The default step budget never goes below the fixed budget of old (20 million steps), so
+  /// that short runs keep the room they always had.
+  static constexpr long kMinStepBudget = 20000000;
+  /// Default contact event budget: 200 per cycle plus 1000 (valid runs: at most ~15 per cycle).
+  static constexpr long kEventsPerCycle = 200;
+
+  /// @brief The run's step budget: max_steps if given, else grows with the run length,
+  /// max(kMinStepBudget, kStepsPerCycle * ceil(cycles)).
+  long step_budget() const;
+  /// @brief The run's contact event budget: max_events if given, else
+  /// kEventsPerCycle * ceil(cycles) + 1000.
+  long event_budget() const;
+
+  /// @brief Throws std::invalid_argument naming the bad option (each has a physical range).
   void validate() const;
+  /// @brief validate(), and what depends on the model: the flow's excitation frequency must
+  /// lie in [kMinExcitationHz, kMaxExcitationHz] (Params::check_flow).
+  void validate(const Params& p) const;
 };
 
 }  // namespace vadsim

@@ -18,6 +18,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from vadsim import _core
 from vadsim.data import table_2_1
 
@@ -31,6 +33,7 @@ __all__ = [
     "load_preset_file",
     "make_params",
     "param_names",
+    "param_ranges",
     "param_table",
     "preset_names",
 ]
@@ -48,6 +51,14 @@ LAWS = {
 def param_table() -> list[tuple[str, str, str, str]]:
     """Every numeric parameter as ``(name, unit, meaning, rule)``, in Table 2.1 order."""
     return [(row[0], row[1], row[2], row[3]) for row in _core.param_table()]
+
+
+def param_ranges() -> dict[str, tuple[str, float, float]]:
+    """Every numeric parameter's physical range as ``name: (rule, lo, hi)`` in its unit
+    (:func:`param_table`): ``"non-negative"`` means 0 or ``[lo, hi]``, the other rules
+    ``[lo, hi]``. Lengths (unit ``l0``) must also stay within 1 km: ``|L| * l0 <= 1000`` m.
+    The core enforces them (``Params.validate``); they are here to be read."""
+    return {row[0]: (row[3], float(row[4]), float(row[5])) for row in _core.param_table()}
 
 
 PARAM_ALIASES: dict[str, str] = {"wob_n_per_kg": "wob"}
@@ -241,6 +252,8 @@ def _checked_overrides(overrides: Mapping[str, Any]) -> dict[str, float]:
             close = [n for n in names if n.lower() == str(key).lower()]
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise ValueError(f"unknown parameter {key!r}{hint}")
+        if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a mistake, not 1
+            raise ValueError(f"parameter {key} = {value!r} is not a number")
         try:
             out[key] = float(value)
         except (TypeError, ValueError) as exc:

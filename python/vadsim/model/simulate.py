@@ -4,6 +4,7 @@ Why this module exists: the core returns raw arrays; users want a run by preset 
 rate, with parameters overridden by name, extra physics by keyword, errors that name the bad
 input, and a result whose arrays, event table and steady-window summary are ready to use.
 The GIL is released while CVODE integrates, so runs in Python threads execute in parallel.
+Ctrl-C stops a run on the main thread within a few thousand steps (see :func:`simulate`).
 """
 
 from __future__ import annotations
@@ -48,8 +49,9 @@ SUNDIALS call, the simulated time and the reason."""
 
 
 def _number(name: str, value: Any, *, integer: bool = False) -> float:
-    """``value`` as a float (or int), or a ValueError that names the argument."""
-    if isinstance(value, (bool, str, bytes)) or value is None:
+    """``value`` as a float (or int), or a ValueError that names the argument. Booleans are
+    not numbers here (``float(True)`` is 1.0, but ``simulate(p, True)`` is a mistake)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)) or value is None:
         raise ValueError(f"{name} = {value!r} must be a number")
     try:
         out = float(value)
@@ -189,10 +191,18 @@ def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None
         return None
     if isinstance(value, SimulationResult):
         value = value.y_end
+    bad = ValueError(f"initial_state = {value!r} must be 14 numbers or a result")
+    if isinstance(value, (str, bytes)):
+        raise bad
     try:
-        arr = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+        # Numbers only: not booleans (float(True) is 1.0) nor strings that float() would take.
+        if raw.dtype.kind not in "iuf" or any(
+                isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).flat):
+            raise bad
+        arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"initial_state = {value!r} must be 14 numbers or a result") from None
+        raise bad from None
     if arr.shape != (14,):
         raise ValueError(f"initial_state must have 14 entries [x1..x7, v1..v7], got {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -218,8 +228,8 @@ def simulate(
     output_rate_hz: float = 20000.0,
     summary_rate_hz: float = 20000.0,
     initial_state: Sequence[float] | np.ndarray | SimulationResult | None = None,
-    max_steps: int = 20_000_000,
-    max_events: int = 0,
+    max_steps: int | None = None,
+    max_events: int | None = None,
 ) -> SimulationResult:
     """Run the model at one flow rate: static on-bottom state, flow on at t = 0.
 
@@ -229,7 +239,9 @@ def simulate(
         A preset name (``"7in-cde"``, ``"7in-rc"``, ``"9.5in-pdc"``), a :class:`Preset`, a
         mapping of parameters (missing ones from ``7in-cde``) or core ``Params``.
     flow_gpm
-        Mud flow (gal/min); the excitation frequency is ``alpha * Q / (2 pi)``.
+        Mud flow (gal/min); the excitation frequency is ``alpha * Q / (2 pi)`` and must lie
+        in 0.1 to 2000 Hz (``_core.EXCITATION_HZ_RANGE``): 0.94 to 18756 gal/min for the 7in
+        tool (``Params.flow_range_gpm()`` for others).
     cycles, analyse_cycles
         Run length and steady window, in excitation cycles (dissertation: 400 and 200).
     overrides
@@ -254,6 +266,10 @@ def simulate(
         static equilibrium: continuation along a flow sweep.
     max_steps, max_events
         Budgets that turn a pathological input into a :class:`SolverError` instead of a hang.
+        ``None`` (default): budgets that grow with the run, 20000 steps per cycle (at least
+        20 million) and 200 contact events per cycle (plus 1000); a valid run takes 20 to
+        4000 steps and at most ~15 events per cycle. An explicit positive integer is used
+        as given.
 
     Returns
     -------
@@ -265,6 +281,14 @@ def simulate(
         Naming a bad parameter or option.
     SolverError
         When the integration fails (the message says the time and why).
+    KeyboardInterrupt
+        On Ctrl-C during a run on the main thread: every 2000 steps the run lets Python run
+        its signal handlers, and stops if one raises (the exception gets a note saying at
+        which time and step the run stopped). Python runs signal handlers on the main thread
+        only, so a run in a worker thread (``ThreadPoolExecutor``) is not interrupted: the
+        main thread gets the KeyboardInterrupt while it waits, and the worker's run goes on
+        to its end (or its step budget); leaving the executor's ``with`` block then waits for
+        the runs in progress. To stop parallel runs promptly, run them in processes.
 
     Examples
     --------
@@ -288,7 +312,7 @@ def simulate(
             raise ValueError(f"wob_klbf = {wob_klbf} must be finite and >= 0")
         params.wob = params.wob * wob / preset.wob_klbf
         params.validate()
-    flow = _number("flow_gpm", flow_gpm)
+    flow = _flow(params, flow_gpm)
     for i, e in enumerate(extras):
         if not (isinstance(e, _core.ExtraForce) or callable(getattr(e, "build", None))):
             raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...) "
@@ -297,18 +321,46 @@ def simulate(
         raise ValueError(f"method = {method!r} must be 'adams' or 'bdf'")
     if not isinstance(record, str) or record not in _RECORDS:
         raise ValueError(f"record = {record!r} must be 'window', 'all' or 'none'")
+    budgets = {}
     for name, value in (("max_steps", max_steps), ("max_events", max_events)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise ValueError(f"{name} = {value!r} must be an integer")
-        _number(name, value, integer=True)
+        budgets[name] = _budget(name, value)
     core_model = _core.Model(params, [_core_extra(e) for e in extras])
     opts = _run_options(flow, cycles=cycles, analyse_cycles=analyse_cycles, method=method,
                         rtol=rtol, atol=atol, max_step=max_step, record=record,
                         output_rate_hz=output_rate_hz, summary_rate_hz=summary_rate_hz,
-                        max_steps=max_steps, max_events=max_events,
+                        max_steps=budgets["max_steps"], max_events=budgets["max_events"],
                         initial_state=initial_state)
+    opts.validate(params)  # what depends on the model (the flow range, checked above)
     r = _core.simulate(core_model, opts)
     return _result(r, params, preset, flow, cycles, analyse_cycles)
+
+
+def _flow(params: _core.Params, flow_gpm: Any) -> float:
+    """The flow rate, within the range whose excitation a run can resolve (from alpha)."""
+    flow = _number("flow_gpm", flow_gpm)
+    lo, hi = params.flow_range_gpm()
+    if not lo <= flow <= hi:
+        f_lo, f_hi = _core.EXCITATION_HZ_RANGE
+        got = f", not {params.excitation_hz(flow):.3g} Hz" if math.isfinite(flow) else ""
+        raise ValueError(
+            f"flow_gpm = {flow_gpm!r} must be in [{lo:.4g}, {hi:.4g}] gal/min: with alpha = "
+            f"{params.alpha:.4g} (rad/s)/(gal/min) the excitation must be in [{f_lo:g}, "
+            f"{f_hi:g}] Hz{got}")
+    return flow
+
+
+def _budget(name: str, value: Any) -> int:
+    """A step or event budget for the core: None -> 0 (the core's default, growing with the
+    run), else a positive integer (``max_events = 0`` still means the default)."""
+    if value is None:
+        return 0
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} = {value!r} must be an integer or None")
+    out = int(_number(name, value, integer=True))
+    low = 1 if name == "max_steps" else 0
+    if out < low:
+        raise ValueError(f"{name} = {value!r} must be >= {low} (or None: grows with the run)")
+    return out
 
 
 def _core_extra(e: Any) -> _core.ExtraForce:
