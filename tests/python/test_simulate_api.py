@@ -767,3 +767,17 @@ print("worker: cycles", round(r.window[1] * r.f_exc_hz, 6), flush=True)
     assert proc.returncode == 0, err
     assert "main: KeyboardInterrupt" in out, out + err
     assert "worker: cycles 2000.0" in out, out + err
+
+
+def test_to_xarray_labels_itself() -> None:
+    """The time series as a Dataset: a named dof dimension, CF units and long names on every
+    variable and coordinate, and the run's labels under the sweep's key names."""
+    r = vadsim.simulate("7in-cde", 200, cycles=20, analyse_cycles=10, output_rate_hz=2000)
+    ds = r.to_xarray()
+    assert list(ds.dof.values) == ["bit", "anvil", "housing", "motor", "sub", "lwd", "mwd"]
+    assert ds.accel_g.sel(dof="bit").size == r.t.size
+    np.testing.assert_array_equal(ds.accel_g.values, r.accel_g)
+    for name in [*ds.data_vars, *ds.coords]:
+        assert "units" in ds[name].attrs and "long_name" in ds[name].attrs, name
+    assert ds.attrs["z_impact"] == r.z["impact"] and ds.attrs["j_pos"] == r.impulse_pos
+    assert r.success is True and "steps" in r.message

@@ -128,19 +128,19 @@ def _row(r: SimulationResult) -> dict[str, float | int | str]:
     row: dict[str, float | int | str] = {
         "flow_gpm": r.flow_gpm,
         "f_exc_hz": round(r.f_exc_hz, 3),
-        **{f"Z_{s}": round(z[s], 4) for s in SURFACES[:4]},
+        **{f"z_{s}": round(z[s], 4) for s in SURFACES[:4]},
         "scenario": r.scenario,
         "regime": regime_name(r.scenario),
         "x1_peak_mean_g": round(mean1, 3),
         "x1_peak_std_g": round(std1, 3),
         "x5_peak_mean_g": round(mean5, 3),
-        "J_pos_N_per_kg": round(r.impulse_pos, 3),
-        "J_mean_N_per_kg": round(r.impulse_mean, 3),
+        "j_pos": round(r.impulse_pos, 3),
+        "j_mean": round(r.impulse_mean, 3),
         "steps": r.stats["steps"],
         "events": len(r.events),
     }
     if r.m_ref_kg:
-        row["J_pos_kN"] = round(r.impulse_pos * r.m_ref_kg / 1000.0, 4)
+        row["j_pos_kN"] = round(r.impulse_pos * r.m_ref_kg / 1000.0, 4)
     return row
 
 
@@ -175,14 +175,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _print_rows(rows: list[dict[str, Any]]) -> None:
-    print(f"{'Q gpm':>7} {'f Hz':>6} {'Z1':>6} {'Z2':>6} {'Z3':>6} {'Z4':>6} {'sc':>3} "
+    print(f"{'Q gal/min':>10} {'f Hz':>6} {'Z1':>6} {'Z2':>6} {'Z3':>6} {'Z4':>6} {'sc':>3} "
           f"{'x1 peak g':>10} {'+-':>6} {'x5 peak g':>10} {'J* N/kg':>8} {'J* kN':>7}  regime")
     for r in rows:
-        print(f"{r['flow_gpm']:7.1f} {r['f_exc_hz']:6.2f} {r['Z_spring']:6.3f} "
-              f"{r['Z_impact']:6.3f} {r['Z_off_bottom']:6.3f} {r['Z_on_bottom']:6.3f} "
+        print(f"{r['flow_gpm']:10.1f} {r['f_exc_hz']:6.2f} {r['z_spring']:6.3f} "
+              f"{r['z_impact']:6.3f} {r['z_off_bottom']:6.3f} {r['z_on_bottom']:6.3f} "
               f"{r['scenario']:3d} {r['x1_peak_mean_g']:10.2f} {r['x1_peak_std_g']:6.2f} "
-              f"{r['x5_peak_mean_g']:10.2f} {r['J_pos_N_per_kg']:8.2f} "
-              f"{r.get('J_pos_kN', float('nan')):7.3f}  {r['regime']}")
+              f"{r['x5_peak_mean_g']:10.2f} {r['j_pos']:8.2f} "
+              f"{r.get('j_pos_kN', float('nan')):7.3f}  {r['regime']}")
 
 
 def _cmd_presets(args: argparse.Namespace) -> int:

@@ -63,8 +63,8 @@ class ValidationResult:
             rec = self.recorded[ev.id]
             row: dict[str, Any] = {"event": ev.id, "flow_gpm": ev.flow_gpm,
                                    "wob_klbf": ev.wob_klbf, "f_exc_hz": sim.f_exc_hz,
-                                   "scenario": sim.scenario, "Z_spring": sim.z["spring"],
-                                   "Z_impact": sim.z["impact"]}
+                                   "scenario": sim.scenario, "z_spring": sim.z["spring"],
+                                   "z_impact": sim.z["impact"]}
             for key, f in rec.items():
                 if key not in sim.sensor:
                     continue

@@ -185,6 +185,53 @@ class SimulationResult:
         i0 = int(np.searchsorted(self.t, self.window[0] - 1e-12))
         return slice(i0, len(self.t))
 
+    @property
+    def success(self) -> bool:
+        """Always True: a run that fails raises :class:`SolverError` instead (the attribute is
+        here where ``scipy.integrate.solve_ivp`` users look for it)."""
+        return True
+
+    @property
+    def message(self) -> str:
+        """What the solver did, in the words a ``solve_ivp`` user expects."""
+        return (f"reached t = {self.window[1]:.6g} s ({self.cycles:g} cycles) in "
+                f"{self.stats['steps']} steps and {self.stats['reinits']} contact events")
+
+    def to_xarray(self) -> Any:
+        """The recorded time series as an :class:`xarray.Dataset` with CF ``units`` and
+        ``long_name`` attributes: dimensions ``time`` and ``dof`` (bit ... mwd) and
+        ``surface`` for the contact forces; the labels of the run as attributes."""
+        import xarray as xr
+
+        dims = ("time", "dof")
+        ds = xr.Dataset(
+            {
+                "x": (dims, self.x, {"units": "m", "long_name": "absolute position"}),
+                "v": (dims, self.v, {"units": "m/s", "long_name": "velocity"}),
+                "a": (dims, self.a, {"units": "m/s^2", "long_name": "acceleration"}),
+                "accel_g": (dims, self.accel_g, {"units": "g", "long_name": "acceleration"}),
+                "contact_force": (("time", "surface"), self.contact_forces,
+                                  {"units": "N/kg", "long_name": "contact force per unit "
+                                   "reference mass"}),
+                "excitation_force": ("time", self.excitation_force,
+                                     {"units": "N/kg", "long_name": "flow-driven excitation "
+                                      "force per unit reference mass"}),
+            },
+            coords={
+                "time": ("time", self.t, {"units": "s", "long_name": "time"}),
+                "dof": ("dof", list(DOF_NAMES), {"units": "", "long_name": "lumped mass"}),
+                "surface": ("surface", list(SURFACES[:self.contact_forces.shape[1]]),
+                            {"units": "", "long_name": "contact surface"}),
+            },
+        )
+        ds.attrs.update(
+            preset=self.preset or "", flow_gpm=self.flow_gpm, f_exc_hz=self.f_exc_hz,
+            cycles=self.cycles, analyse_cycles=self.analyse_cycles, scenario=self.scenario,
+            j_pos=self.impulse_pos, j_mean=self.impulse_mean,
+            **{f"z_{s}": v for s, v in self.z.items()},
+        )
+        return ds
+
 
 def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None):
     if value is None:
