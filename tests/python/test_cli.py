@@ -177,3 +177,21 @@ def test_map_values_need_from_to_step(capsys) -> None:
     assert main(["map", "--param", "kS", "--values", "1", "2", "3", "4", "--quiet"]) == 2
     assert "--values 1 2 3 4: expected FROM TO STEP" in capsys.readouterr().err
     assert main(["map", "--param", "kS", "--values", "1", "2", "3", "--steps", "4"]) == 2
+
+
+def test_campaign_outside_its_folder_needs_allow_outside(tmp_path, capsys) -> None:
+    """A campaign whose event file lies outside its folder is refused (exit 2, naming the
+    key) unless --allow-outside is given."""
+    from vadsim.recordings import save_campaign
+    from vadsim.synthetic import synthetic_campaign
+
+    camp = synthetic_campaign("7in-cde", (200.0, 400.0, 600.0), cycles=60, analyse_cycles=40)
+    folder = save_campaign(camp, tmp_path / "camp")
+    (folder / "e01.csv").rename(tmp_path / "e01.csv")
+    toml = folder / "campaign.toml"
+    toml.write_text(toml.read_text().replace('"e01.csv"', '"../e01.csv"'))
+    args = ["validate", str(folder), "--cycles", "60", "--analyse", "40", "--quiet",
+            "--out", str(tmp_path / "rep")]
+    assert main(args) == 2
+    assert "leaves the campaign folder" in capsys.readouterr().err
+    assert main([*args, "--allow-outside"]) == 0

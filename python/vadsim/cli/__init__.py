@@ -48,3 +48,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, SolverError, OSError) as exc:
         print(f"vadsim: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # finished work is already kept (a map's store holds every finished chunk)
+        print("vadsim: interrupted", file=sys.stderr)
+        return 130

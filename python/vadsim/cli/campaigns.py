@@ -12,6 +12,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from vadsim.cli.common import (
     Parents,
@@ -37,7 +38,7 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
         "standardised mismatch heat map).",
         parents=[parents.overrides, parents.length, *parents.execution],
     )
-    va.add_argument("campaign")
+    _add_campaign_argument(va)
     _add_report_options(va, "validation")
     va.set_defaults(func=_cmd_validate)
     _add_calibrate(sub, parents)
@@ -76,7 +77,7 @@ def _add_calibrate(sub: Subparsers, parents: Parents) -> None:
         "--resolution full",
         parents=[parents.overrides, parents.length, *parents.execution],
     )
-    ca.add_argument("campaign")
+    _add_campaign_argument(ca)
     ca.add_argument("--param", action="append", required=True,
                     help="parameter to fit (repeatable), e.g. --param l0 --param wob")
     ca.add_argument("--bounds", action="append", metavar="NAME=LO:HI",
@@ -117,7 +118,7 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
         parents=[parents.overrides, length_parent(cycles=300), parents.quiet,
                  workers_parent(what="worker processes for the candidates")],
     )
-    dg.add_argument("campaign")
+    _add_campaign_argument(dg)
     _add_report_options(dg, "diagnosis")
     dg.add_argument("--json", action="store_true",
                     help="print one JSON object (missing_physics, parameters, located, "
@@ -135,12 +136,26 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
     dg.set_defaults(func=_cmd_diagnose)
 
 
+def _campaign(args: argparse.Namespace) -> Any:
+    """The campaign named on the command line, loaded (outside its folder only if allowed)."""
+    from vadsim.campaigns import load_any_campaign
+
+    return load_any_campaign(args.campaign, allow_outside=args.allow_outside)
+
+
+def _add_campaign_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument("campaign", help="campaign folder, its campaign.toml, or thesis:7in-cde, "
+                   "thesis:7in-rc, thesis:9.5in-pdc")
+    p.add_argument("--allow-outside", action="store_true",
+                   help="let the campaign read files outside its folder (refused by default)")
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from vadsim.fit.validate import validate
     from vadsim.report.validation import write_validation_report
 
     t0 = time.perf_counter()
-    res = validate(args.campaign, overrides=parse_overrides(args.set),
+    res = validate(_campaign(args), overrides=parse_overrides(args.set),
                    cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers,
                    progress=not args.quiet)
     cmd = "vadsim validate " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else None
@@ -178,7 +193,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                   + ", ".join(f"{k}={v:.5g}" for k, v in vals.items()), flush=True)
 
     global_stages: dict[str, bool | str] = {"scan": "scan", "de": "de", "none": False}
-    res = calibrate(args.campaign, args.param, bounds=bounds or None, start=start or None,
+    res = calibrate(_campaign(args), args.param, bounds=bounds or None, start=start or None,
                     targets=args.targets, keys=args.keys, resolution=args.resolution,
                     overrides=parse_overrides(args.set),
                     global_stage=global_stages[args.global_stage],
@@ -209,7 +224,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from vadsim.fit.diagnose import diagnose, predict
     from vadsim.report.diagnosis import write_diagnosis_report
 
-    diag = diagnose(args.campaign, candidates=args.candidates,
+    diag = diagnose(_campaign(args), candidates=args.candidates,
                     overrides=parse_overrides(args.set), cycles=args.cycles,
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
