@@ -54,6 +54,7 @@ from vadsim.signals.labels import impact_frequency, periodicity, poincare_period
 
 __all__ = [
     "CLAIM_STALE_S",
+    "CLAIM_WRITE_GRACE_S",
     "DERIVED_PARAMETERS",
     "FEATURES",
     "GAP_REALISATIONS",
@@ -134,6 +135,11 @@ STORE_FORMAT = 2
 CLAIM_STALE_S = 600.0
 """A claim not refreshed for this long (s) is taken over, whoever holds it. A live process
 refreshes its claims every few seconds, so only a dead or frozen one reaches this age."""
+
+CLAIM_WRITE_GRACE_S = 30.0
+"""A claim file still empty after this long was never written: the process that created it
+died between creating and writing it (writing takes microseconds; 30 s leaves room for a
+machine under heavy load), so it is taken over."""
 
 _HEARTBEAT_S = 5.0
 _POLL_S = 0.2
@@ -637,6 +643,9 @@ class _Store:
         holder = holder if isinstance(holder, dict) else {}
         if age > CLAIM_STALE_S:
             return holder, f"no sign of life for {age:.0f} s"
+        if not holder and age > CLAIM_WRITE_GRACE_S:
+            # created (O_EXCL) but never written: its claimant was killed in between
+            return holder, "holds no owner record (its process ended while writing it)"
         if holder.get("host") == self.host and not _pid_alive(holder.get("pid")):
             return holder, f"process {holder.get('pid')} on this host has ended"
         return None
