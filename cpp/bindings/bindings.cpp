@@ -40,7 +40,8 @@ void bind_errors_and_enums(py::module_& m) {
   py::enum_<ContactLawKind>(m, "ContactLawKind")
       .value("KelvinVoigt", ContactLawKind::KelvinVoigt)
       .value("KelvinVoigtNoTension", ContactLawKind::KelvinVoigtNoTension)
-      .value("HuntCrossley", ContactLawKind::HuntCrossley);
+      .value("HuntCrossley", ContactLawKind::HuntCrossley)
+      .value("PowerDamping", ContactLawKind::PowerDamping);
   py::enum_<Method>(m, "Method").value("BDF", Method::BDF).value("Adams", Method::Adams);
   py::enum_<Record>(m, "Record")
       .value("None_", Record::None)
@@ -97,7 +98,7 @@ void bind_extra_forces(py::module_& m) {
   py::class_<ExtraForce, std::shared_ptr<ExtraForce>>(m, "ExtraForce")
       .def_property_readonly("name", &ExtraForce::name);
   py::class_<HydraulicForce, ExtraForce, std::shared_ptr<HydraulicForce>>(m, "HydraulicForce")
-      .def(py::init<int, double>(), py::arg("dof"), py::arg("c"));
+      .def(py::init<int, double, double>(), py::arg("dof"), py::arg("c"), py::arg("n") = 2.0);
   py::class_<CoulombFriction, ExtraForce, std::shared_ptr<CoulombFriction>>(m, "CoulombFriction")
       .def(py::init<int, int, double, double>(), py::arg("dof_a"), py::arg("dof_b"),
            py::arg("force"), py::arg("v_eps"));

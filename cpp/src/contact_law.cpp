@@ -14,6 +14,28 @@ ContactForce HuntCrossleyLaw::eval(double d, double dd) const {
   return {k_ * dn * g, k_ * ddn * g, k_ * dn * alpha_};
 }
 
+ContactForce PowerDampingLaw::eval(double d, double dd) const {
+  // As in Hunt-Crossley, d may be a hair below zero after a located root: (d/d_c)^s at d < 0
+  // would be NaN. w = (d / d_c)^s and dw = d w / d d; s = 0 and 1 skip pow (exact, cheap).
+  const double dp = d > 0 ? d : 0.0;
+  double w = 1.0, dw = 0.0;
+  if (s_ == 1.0) {
+    w = dp * inv_dc_;
+    dw = inv_dc_;
+  } else if (s_ != 0.0) {
+    w = std::pow(dp * inv_dc_, s_);
+    dw = dp > 0 ? s_ * w / dp : 0.0;  // unbounded as d -> 0 for s < 1: its limit is not used
+  }
+  return {k_ * d + lambda_ * w * dd, k_ + lambda_ * dw * dd, lambda_ * w};
+}
+
+double PowerDampingLaw::push_indicator(double d, double dd) const {
+  if (s_ == 0.0) return k_ * d + lambda_ * dd;  // Kelvin-Voigt without tension, bit for bit
+  const double dp = d > 0 ? d : 0.0;
+  if (s_ <= 1.0) return k_dc_ * std::pow(dp * inv_dc_, 1.0 - s_) + lambda_ * dd;
+  return k_dc_ + lambda_ * std::pow(dp * inv_dc_, s_ - 1.0) * dd;
+}
+
 std::shared_ptr<const ContactLaw> make_contact_law(ContactLawKind kind, double k, double c,
                                                    const Params& p) {
   switch (kind) {
@@ -21,6 +43,8 @@ std::shared_ptr<const ContactLaw> make_contact_law(ContactLawKind kind, double k
       return std::make_shared<KelvinVoigtLaw>(k, c, false);
     case ContactLawKind::HuntCrossley:
       return std::make_shared<HuntCrossleyLaw>(k, p.hc_n, p.hc_alpha);
+    case ContactLawKind::PowerDamping:
+      return std::make_shared<PowerDampingLaw>(k, c, p.pd_factor, p.pd_shape, p.pd_dc);
     case ContactLawKind::KelvinVoigt:
     default:
       return std::make_shared<KelvinVoigtLaw>(k, c, true);

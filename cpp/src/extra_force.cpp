@@ -24,10 +24,14 @@ void check_range(double v, const char* what, double lo, double hi, const char* u
 }
 }  // namespace
 
-HydraulicForce::HydraulicForce(int dof, double c) : dof_(dof), c_(c) {
+HydraulicForce::HydraulicForce(int dof, double c, double n) : dof_(dof), c_(c), n_(n) {
   check_dof(dof, "hydraulic_force dof", false);
-  // c Q^2 at the highest flow (~2e4 gal/min) stays below 1e9 N/kg, the bound of Fo and wob.
-  check_range(c, "hydraulic_force c", -1.0, 1.0, "(N/kg)/(gal/min)^2", true);
+  // n = 0 is a constant force, 4 already far steeper than any pressure drop; within that,
+  // c Q^n at 2e4 gal/min (beyond any preset's highest flow) stays below 4e8 N/kg, inside the
+  // bound of Fo and wob (1e9): |c| <= 4e8 / 2e4^n, i.e. 1 (N/kg)/(gal/min)^2 for the square.
+  check_range(n, "hydraulic_force n", 0.0, 4.0, "-", false);
+  const double c_max = 4e8 / std::pow(2e4, n);
+  check_range(c, "hydraulic_force c", -c_max, c_max, "(N/kg)/(gal/min)^n", true);
 }
 
 CoulombFriction::CoulombFriction(int a, int b, double force, double v_eps)

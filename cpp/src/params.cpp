@@ -26,6 +26,14 @@ constexpr double kTravel[2] = {0.0, 1e6};       // l0
 constexpr double kL0[2] = {1e-6, 1e3};          // m
 constexpr double kExponent[2] = {1.0, 3.0};     // -
 constexpr double kHcAlpha[2] = {1e-12, 1e6};    // s/m, or 0
+constexpr double kPdFactor[2] = {1e-9, 1e6};    // -, or 0 (on a damping of at most 1e12)
+// s = 0 is Kelvin-Voigt without tension, s = 1 Hunt-Crossley's damping on a linear spring,
+// s = 1.5 its Hertzian form's (lambda d^1.5); 2 leaves room above that. Beyond it the
+// damping is negligible over most of a contact and the law a spring in disguise.
+constexpr double kPdShape[2] = {0.0, 2.0};      // -
+// The indentation scale: from a micrometre (machined faces in hard contact) to a metre (far
+// beyond any tool's travel; (d / pd_dc)^s stays a normal number for d within kMaxLengthM).
+constexpr double kPdDc[2] = {1e-6, 1.0};        // m
 
 /// A length in metres beyond which a model is not a drilling tool (1 km).
 constexpr double kMaxLengthM = 1e3;
@@ -109,6 +117,12 @@ const std::vector<ParamInfo>& param_table() {
        kExponent[1]},
       {"hc_alpha", "s/m", "Hunt-Crossley damping factor", R::NonNegative, &Params::hc_alpha,
        kHcAlpha[0], kHcAlpha[1]},
+      {"pd_factor", "-", "power-damping factor on the surface's damping", R::NonNegative,
+       &Params::pd_factor, kPdFactor[0], kPdFactor[1]},
+      {"pd_shape", "-", "power-damping shape (damping ~ indentation^shape)", R::Exponent,
+       &Params::pd_shape, kPdShape[0], kPdShape[1]},
+      {"pd_dc", "m", "power-damping characteristic indentation", R::Positive, &Params::pd_dc,
+       kPdDc[0], kPdDc[1]},
   };
   return table;
 }

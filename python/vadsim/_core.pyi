@@ -16,6 +16,7 @@ class ContactLawKind(enum.Enum):
     KelvinVoigt = 0
     KelvinVoigtNoTension = 1
     HuntCrossley = 2
+    PowerDamping = 3
 
 class Method(enum.Enum):
     BDF = 0
@@ -72,6 +73,9 @@ class Params:
     wob: float
     hc_n: float
     hc_alpha: float
+    pd_factor: float
+    pd_shape: float
+    pd_dc: float
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
     def gap(self) -> float: ...
@@ -91,7 +95,7 @@ class ExtraForce:
     def name(self) -> str: ...
 
 class HydraulicForce(ExtraForce):
-    def __init__(self, dof: int, c: float) -> None: ...
+    def __init__(self, dof: int, c: float, n: float = ...) -> None: ...
 
 class CoulombFriction(ExtraForce):
     def __init__(self, dof_a: int, dof_b: int, force: float, v_eps: float) -> None: ...

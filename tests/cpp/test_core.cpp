@@ -235,6 +235,8 @@ double law_force(const Params& p, int s, double d, double dd) {
     case ContactLawKind::KelvinVoigtNoTension: return std::max(0.0, kc[s] * d + cc[s] * dd);
     case ContactLawKind::HuntCrossley:
       return std::max(0.0, kc[s] * std::pow(d, p.hc_n) * (1.0 + p.hc_alpha * dd));
+    case ContactLawKind::PowerDamping:
+      return std::max(0.0, kc[s] * d + p.pd_factor * cc[s] * std::pow(d / p.pd_dc, p.pd_shape) * dd);
   }
   return 0;
 }
@@ -801,20 +803,31 @@ void test_jacobian_fd() {
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   const std::vector<ExtraForcePtr> extras = {
       std::make_shared<HydraulicForce>(1, 2e-3),
+      std::make_shared<HydraulicForce>(0, 3e-5, 1.3),
       std::make_shared<CoulombFriction>(1, 2, 40.0, 0.05),
       std::make_shared<CoulombFriction>(0, -1, 25.0, 0.1),
       std::make_shared<SpringDashpot>(6, -1, 5e5, 300.0),
       std::make_shared<SpringDashpot>(0, 2, 1e5, 50.0),
   };
-  const ContactLawKind kinds[3] = {ContactLawKind::KelvinVoigt,
-                                   ContactLawKind::KelvinVoigtNoTension,
-                                   ContactLawKind::HuntCrossley};
+  // The power-damping family twice: its shape below 1 (d^(s-1) grows towards first touch)
+  // and above (d^(s-1) vanishes there).
+  struct LawCase {
+    ContactLawKind kind;
+    double pd_shape;
+  };
+  const LawCase kinds[5] = {{ContactLawKind::KelvinVoigt, 0.0},
+                            {ContactLawKind::KelvinVoigtNoTension, 0.0},
+                            {ContactLawKind::HuntCrossley, 0.0},
+                            {ContactLawKind::PowerDamping, 0.5},
+                            {ContactLawKind::PowerDamping, 1.7}};
   double worst_overall = 0;
   long compared = 0;
-  for (const auto kind : kinds) {
+  for (const auto [kind, pd_shape] : kinds) {
     Params p;
     p.law = kind;
     p.hc_n = 1.5;
+    p.pd_factor = 2.5;
+    p.pd_shape = pd_shape;
     const Model m(p, extras);
     double worst = 0;
     for (int combo = 0; combo < 243; ++combo) {  // 3^5 mode combinations
@@ -862,7 +875,8 @@ void test_jacobian_fd() {
             if (err > worst) worst = err;
             if (err > 1e-6) {
               report_failure(__FILE__, __LINE__,
-                             cat("law ", int(kind), " modes ", combo, " J(", i, ",", j,
+                             cat("law ", int(kind), " (pd_shape ", pd_shape, ") modes ",
+                                 combo, " J(", i, ",", j,
                                  ") = ", J(i, j), " vs FD ", F(i, j), " rel err ", err));
               return;
             }
@@ -870,9 +884,9 @@ void test_jacobian_fd() {
         }
       }
     }
-    std::printf("law %d: max relative error of the Jacobian over 243 mode combinations x 2 "
-                "states: %.2e\n",
-                int(kind), worst);
+    std::printf("law %d (pd_shape %g): max relative error of the Jacobian over 243 mode "
+                "combinations x 2 states: %.2e\n",
+                int(kind), pd_shape, worst);
     worst_overall = std::max(worst_overall, worst);
   }
   std::printf("jacobian: %ld entries compared, worst relative error %.2e\n", compared,
@@ -888,13 +902,15 @@ void test_contact_laws() {
     ContactLawKind kind;
     const char* name;
   };
-  const LawRun laws[3] = {{ContactLawKind::KelvinVoigt, "KelvinVoigt"},
+  const LawRun laws[4] = {{ContactLawKind::KelvinVoigt, "KelvinVoigt"},
                           {ContactLawKind::KelvinVoigtNoTension, "KelvinVoigtNoTension"},
-                          {ContactLawKind::HuntCrossley, "HuntCrossley(n=1.5)"}};
+                          {ContactLawKind::HuntCrossley, "HuntCrossley(n=1.5)"},
+                          {ContactLawKind::PowerDamping, "PowerDamping(s=1.5)"}};
   for (const auto& L : laws) {
     Params p;
     p.law = L.kind;
     p.hc_n = 1.5;
+    p.pd_shape = 1.5;
     const Model m(p);
     RunOptions o;
     o.flow_gpm = flow;
@@ -965,8 +981,218 @@ void test_contact_laws() {
         // is ~1e-4 of the peak; a jump like Kelvin-Voigt's c d' is > 5 % of it.
         CHECK_LE(worst_touch, 2e-3, "HuntCrossley force at the first sample after onset / peak");
         break;
+      case ContactLawKind::PowerDamping:
+        CHECK(fmin >= -1e-9, "PowerDamping produced tension, min force ", fmin);
+        // s = 1.5: the damping vanishes at first touch, so within 5 us (d <~ 10 um) the force
+        // is the spring's k d plus c (d / 1 mm)^1.5 d', <~ 0.2 % of the peak (measured
+        // 1.6e-3); Kelvin-Voigt's jump is > 5 % of it.
+        CHECK_LE(worst_touch, 0.01, "PowerDamping force at the first sample after onset / peak");
+        break;
     }
   }
+}
+
+// ------------------------------------------------------------------------------------------
+// The power-damping family: its force and derivatives, the lift-off indicator, the clamp in
+// the model, the located lift-off of a single impact and its coefficient of restitution.
+
+/// Onset, lift-off and release of the impact face when a free anvil hits a free bit at v0
+/// (two_mass_params: no other force acts). Events not found are left with t = -1.
+struct SingleImpact {
+  ContactEvent onset{-1, kImpact, EventKind::Onset, 0}, lift{-1, kImpact, EventKind::Lift, 0},
+      release{-1, kImpact, EventKind::Release, 0};
+  int impact_events = 0;
+  double restitution() const { return -release.rel_velocity / onset.rel_velocity; }
+};
+
+SingleImpact single_impact(const Params& p, double v0) {
+  const Model m(p);
+  State x0 = State::Zero();
+  x0.head<kDof>() = m.static_positions();
+  x0[1] -= 2e-3;      // anvil 2 mm above the bit
+  x0[kDof + 1] = v0;  // moving down onto the bit at rest
+  RunOptions o;
+  o.flow_gpm = 200;
+  // 14 ms: onset at 2 ms, release within ~8 ms; the bit, thrown down at < v0, does not reach
+  // its (zero-stiffness) off-bottom shoulder 7 mm below before the end.
+  o.cycles = o.analyse_cycles = 0.3;
+  o.rtol = 1e-12;
+  o.atol = 1e-14;
+  o.record = Record::None;
+  o.initial_state = x0;
+  const RunResult r = simulate(m, o);
+  SingleImpact out;
+  for (const auto& e : r.events) {
+    if (e.surface != kImpact) continue;
+    ++out.impact_events;
+    if (e.kind == EventKind::Onset && out.onset.t < 0) out.onset = e;
+    if (e.kind == EventKind::Lift && out.lift.t < 0) out.lift = e;
+    if (e.kind == EventKind::Release && out.release.t < 0) out.release = e;
+  }
+  return out;
+}
+
+void test_power_damping() {
+  const double k = 1.2e5, c = 469.0, dc = 1e-3;
+  // 1. Force, derivatives (central differences) and the indicator's sign, on a grid of
+  // indentations 1 um .. 5 mm, rates -3 .. 3 m/s, shapes across the family's range.
+  for (const double sh : {0.0, 0.3, 0.5, 1.0, 1.5, 2.0}) {
+    const PowerDampingLaw law(k, c, 1.7, sh, dc);
+    const double lam = 1.7 * c;
+    for (const double d : {1e-6, 1e-4, 1e-3, 5e-3}) {
+      for (const double dd : {-3.0, -0.4, -1e-3, 0.0, 0.2, 3.0}) {
+        const ContactForce f = law.eval(d, dd);
+        const double want = k * d + lam * std::pow(d / dc, sh) * dd;
+        CHECK_LE(std::abs(f.f - want), 1e-13 * (k * d + std::abs(lam * dd)), "force");
+        const double hd = 1e-6 * d, hv = 1e-6;
+        const double fd_d = (law.eval(d + hd, dd).f - law.eval(d - hd, dd).f) / (2 * hd);
+        const double fd_v = (law.eval(d, dd + hv).f - law.eval(d, dd - hv).f) / (2 * hv);
+        CHECK_LE(std::abs(f.df_dd - fd_d), 1e-6 * std::abs(fd_d) + 1e-6, "df/dd");
+        CHECK_LE(std::abs(f.df_ddd - fd_v), 1e-6 * std::abs(fd_v) + 1e-9, "df/dd'");
+        const double g = law.push_indicator(d, dd);
+        if (std::abs(want) > 1e-9 * (k * d + std::abs(lam * dd)))
+          CHECK((g > 0) == (want > 0), "indicator ", g, " and force ", want, " differ in sign",
+                " at s = ", sh, ", d = ", d, ", d' = ", dd);
+      }
+    }
+    // At first touch the indicator is finite and continuous: lambda d' below s = 1 (the
+    // sign of the approach), k d_c above, both at s = 1.
+    for (const double dd : {-2.0, 2.0}) {
+      const double g0 = law.push_indicator(0.0, dd), g1 = law.push_indicator(1e-14, dd);
+      const double want = sh < 1 ? lam * dd : (sh > 1 ? k * dc : k * dc + lam * dd);
+      CHECK_LE(std::abs(g0 - want), 1e-12 * std::abs(want), cat("indicator at d = 0, s = ", sh));
+      CHECK_LE(std::abs(g1 - g0), 1e-3 * std::abs(want), "indicator continuous at d = 0");
+      const ContactForce below = law.eval(-1e-18, dd);  // a root located a hair past 0
+      CHECK(std::isfinite(below.f) && std::isfinite(below.df_dd) && std::isfinite(below.df_ddd),
+            "non-finite force just below d = 0 at s = ", sh);
+    }
+  }
+
+  // 2. The model clamps: overlapping and separating fast, the contact is lifted and carries
+  // no force; approaching, it pushes with the law's force.
+  Params p = two_mass_params();
+  p.law = ContactLawKind::PowerDamping;
+  p.pd_shape = 1.0;
+  {
+    const Model m(p);
+    State y = State::Zero();
+    y[1] = 1e-3;  // anvil 1 mm into the bit: d = d_c
+    Modes modes{};
+    modes[kImpact] = ContactMode::Pushing;
+    y[kDof + 1] = -5.0;  // separating: 1.2e5 * 1e-3 - 469 * 5 < 0
+    CHECK(m.mode_at(kImpact, y, 0.0, 200, modes) == ContactMode::Lifted,
+          "a separating contact whose law would pull is not lifted");
+    y[kDof + 1] = 1.0;
+    CHECK(m.mode_at(kImpact, y, 0.0, 200, modes) == ContactMode::Pushing,
+          "an approaching contact is not pushing");
+    Evaluation e;
+    m.evaluate(0.0, 200, y, modes, e);
+    CHECK_LE(std::abs(e.fc[kImpact] - (120.0 + 469.0)), 1e-9, "pushing force k d + c d'");
+    modes[kImpact] = ContactMode::Lifted;
+    m.evaluate(0.0, 200, y, modes, e);
+    CHECK(e.fc[kImpact] == 0.0, "a lifted contact carries ", e.fc[kImpact], " N/kg");
+  }
+
+  // 3. The lift-off root of a single impact (s = 0.5: the damping outlasts the spring near
+  // d = 0, so the contact lifts before it opens). After the lift the pair flies freely: the
+  // indentation closes at the lift's rate, so d at the lift is |d'| (t_release - t_lift), and
+  // there the unclamped force must vanish.
+  {
+    p.pd_shape = 0.5;
+    const SingleImpact r = single_impact(p, 1.0);
+    CHECK(r.onset.t > 0 && r.lift.t > r.onset.t && r.release.t > r.lift.t,
+          "onset, lift, release expected in order: ", r.onset.t, ", ", r.lift.t, ", ",
+          r.release.t);
+    CHECK(r.impact_events == 3, "one contact expected, got ", r.impact_events, " events");
+    const double v = r.lift.rel_velocity, d = -v * (r.release.t - r.lift.t);
+    const double spring = k * d, damping = c * std::pow(d / dc, 0.5) * v;
+    std::printf("s = 0.5: lift at d = %.6e m, d' = %.6f m/s; k d = %.6g, damping %.6g N/kg; "
+                "release rate %.6f m/s\n", d, v, spring, damping, r.release.rel_velocity);
+    CHECK(d > 0, "lift with the surfaces apart: d = ", d);
+    // Root located to ~1e-14 s on a solution accurate to rtol 1e-12: the two terms cancel to
+    // 1e-6 of either (the free flight's d is exact up to the same event times).
+    CHECK_LE(std::abs(spring + damping), 1e-6 * spring, "unclamped force at the lift-off");
+    CHECK_LE(std::abs(r.release.rel_velocity - v), 1e-9, "free flight after the lift-off");
+  }
+
+  // 4. Restitution: 1 without damping, below 1 and falling as the factor grows, at both ends
+  // of the family; s = 0, factor 1 is Kelvin-Voigt without tension, event for event. (At
+  // factor 4 and s <= 1 the 7in impact face is overdamped, zeta ~ 3.5: anvil and bit never
+  // separate, a restitution of 0.)
+  for (const double sh : {0.0, 1.0, 2.0}) {
+    p.pd_shape = sh;
+    double prev = 0;
+    for (const double fac : {0.0, 0.25, 0.5, 1.0, 2.0}) {
+      p.pd_factor = fac;
+      const SingleImpact r = single_impact(p, 1.0);
+      const double e = r.restitution();
+      std::printf("s = %.1f, factor %.2f: restitution %.8f (%d impact-face events)\n", sh, fac,
+                  e, r.impact_events);
+      CHECK(r.release.t > 0, "no release at s = ", sh, ", factor ", fac);
+      if (fac == 0.0) {
+        CHECK_LE(std::abs(e - 1.0), 1e-6, "restitution of the undamped contact");
+      } else {
+        CHECK(e > 0 && e < 1, "restitution ", e, " at s = ", sh, ", factor ", fac);
+        CHECK(e < prev - 1e-3, "restitution ", e, " not below ", prev, " of a smaller factor");
+      }
+      prev = e;
+    }
+  }
+  p.pd_shape = 0.0;
+  p.pd_factor = 1.0;
+  const SingleImpact pd = single_impact(p, 1.0);
+  p.law = ContactLawKind::KelvinVoigtNoTension;
+  const SingleImpact kv = single_impact(p, 1.0);
+  CHECK_LE(std::abs(pd.lift.t - kv.lift.t) + std::abs(pd.release.t - kv.release.t), 1e-12,
+           "s = 0, factor 1 against Kelvin-Voigt without tension: event times");
+  CHECK_LE(std::abs(pd.restitution() - kv.restitution()), 1e-12,
+           "s = 0, factor 1 against Kelvin-Voigt without tension: restitution");
+}
+
+// ------------------------------------------------------------------------------------------
+// The hydraulic force c Q^n: its value through the model's right-hand side, no Jacobian
+// entries, the square law unchanged, a bad exponent refused by name.
+
+void test_hydraulic_force() {
+  const Params p;
+  const Model base(p);
+  State y = State::Zero();
+  y[kDof + 1] = 0.3;
+  Modes modes{};
+  for (int s = 0; s < kSurfaces; ++s) modes[s] = base.mode_at(s, y, 0.0, 300, modes);
+  for (const double n : {0.0, 1.0, 1.5, 2.0, 3.0}) {
+    const double c = 40.0 / std::pow(400.0, n);  // 40 N/kg at 400 gal/min
+    for (const int dof : {0, 1}) {
+      const Model m(p, {std::make_shared<HydraulicForce>(dof, c, n)});
+      for (const double q : {200.0, 400.0, 650.0}) {
+        State f0, f1;
+        base.rhs(0.01, q, y, modes, f0);
+        m.rhs(0.01, q, y, modes, f1);
+        const double masses[2] = {p.m1, p.m2};
+        const double got = (f1[kDof + dof] - f0[kDof + dof]) * masses[dof];
+        const double want = 40.0 * std::pow(q / 400.0, n);
+        CHECK_LE(std::abs(got - want), 1e-9 * want, cat("c Q^n at n = ", n, ", Q = ", q));
+        CHECK((f1 - f0).norm() == std::abs(f1[kDof + dof] - f0[kDof + dof]),
+              "the hydraulic force acts on one body only");
+        Mat14 J0, J1;
+        base.jacobian(0.01, q, y, modes, J0);
+        m.jacobian(0.01, q, y, modes, J1);
+        CHECK(J0 == J1, "the hydraulic force added Jacobian entries at n = ", n);
+      }
+    }
+  }
+  // The default exponent is the square law, bit for bit.
+  Vec7 f2 = Vec7::Zero(), fs = Vec7::Zero();
+  const Vec7 z = Vec7::Zero();
+  const Vec7CRef zz(z);
+  HydraulicForce(1, 2.5e-4).add_force(0, 437.0, zz, zz, f2);
+  HydraulicForce(1, 2.5e-4, 2.0).add_force(0, 437.0, zz, zz, fs);
+  CHECK(f2[1] == 2.5e-4 * 437.0 * 437.0 && fs[1] == f2[1], "square law ", f2[1], " ", fs[1]);
+  CHECK_THROWS(std::invalid_argument, HydraulicForce(1, 1e-4, 5.0), "hydraulic_force n = 5");
+  CHECK_THROWS(std::invalid_argument, HydraulicForce(1, 1e-4, -1.0), "hydraulic_force n = -1");
+  // The bound on c follows the exponent: 4e8 N/kg at 2e4 gal/min.
+  CHECK_THROWS(std::invalid_argument, HydraulicForce(1, 1e-3, 3.0), "hydraulic_force c = ");
+  HydraulicForce(1, 4e8 / 8e12 * 0.99, 3.0);  // just inside: no throw
 }
 
 // ------------------------------------------------------------------------------------------
@@ -983,7 +1209,9 @@ void test_bad_input() {
     const char* name;
     double value;
   };
-  for (const Bad& b : {Bad{"m3", -1.0}, Bad{"kI", nan}, Bad{"cS", -2.0}, Bad{"hc_n", 0.5}}) {
+  for (const Bad& b : {Bad{"m3", -1.0}, Bad{"kI", nan}, Bad{"cS", -2.0}, Bad{"hc_n", 0.5},
+                       Bad{"pd_shape", 2.5}, Bad{"pd_shape", -0.1}, Bad{"pd_factor", -1.0},
+                       Bad{"pd_dc", 0.0}}) {
     const Params p = with(b.name, b.value);
     const std::string needle = std::string(b.name) + " ";
     CHECK_THROWS(std::invalid_argument, p.validate(), needle);
@@ -1162,6 +1390,8 @@ int main(int argc, char** argv) {
       {"static_equilibrium", test_static_equilibrium},
       {"jacobian_fd", test_jacobian_fd},
       {"contact_laws", test_contact_laws},
+      {"power_damping", test_power_damping},
+      {"hydraulic_force", test_hydraulic_force},
       {"bad_input", test_bad_input},
       {"interrupt", test_interrupt},
   };

@@ -4,6 +4,7 @@
 /// into the string...), evaluated inside the core so that fits stay fast and the integrator
 /// never changes when a term is added.
 
+#include <cmath>
 #include <memory>
 #include <string>
 
@@ -31,22 +32,29 @@ class ExtraForce {
                             Mat7& dfdu, Mat7& dfdv) const = 0;
 };
 
-/// @brief c Q^2 pushing one body (anvil or bit) towards the rock: the pressure drop across
-/// the tool grows with the square of the flow.
+/// @brief c Q^n pushing one body (anvil or bit) towards the rock: the pressure drop across
+/// the tool's nozzles and ports.
+///
+/// A turbulent orifice gives n = 2 (the default), a laminar or partly choked path less, a
+/// motor whose differential pressure rises with flow more: the exponent makes the force a
+/// family, so a fit is not forced onto the square law when the field's hydraulics differ.
+/// The force is independent of the state (no Jacobian entries).
 class HydraulicForce final : public ExtraForce {
  public:
-  HydraulicForce(int dof, double c);
+  /// @param dof body (0-based); c in (N/kg)/(gal/min)^n; n in [0, 4] (checked).
+  HydraulicForce(int dof, double c, double n = 2.0);
   std::string name() const override { return "hydraulic_force"; }
   void add_force(double, double flow_gpm, const Vec7CRef&, const Vec7CRef&,
                  Vec7& f) const override {
-    f[dof_] += c_ * flow_gpm * flow_gpm;
+    // n = 2 keeps the square exact, so c Q^2 runs are bit-identical to the square law's.
+    f[dof_] += c_ * (n_ == 2.0 ? flow_gpm * flow_gpm : std::pow(flow_gpm, n_));
   }
   void add_jacobian(double, double, const Vec7CRef&, const Vec7CRef&, Mat7&,
                     Mat7&) const override {}
 
  private:
   int dof_;
-  double c_;
+  double c_, n_;
 };
 
 /// @brief Coulomb friction between two bodies, regularised as F tanh(v_rel / v_eps) so that

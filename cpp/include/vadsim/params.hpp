@@ -13,7 +13,8 @@ namespace vadsim {
 enum class ContactLawKind {
   KelvinVoigt = 0,           ///< k d + c d' while d > 0, tension kept (the dissertation's law)
   KelvinVoigtNoTension = 1,  ///< max(0, k d + c d'): a contact can only push
-  HuntCrossley = 2           ///< max(0, k d^n + lambda d^n d') with lambda = hc_alpha * k
+  HuntCrossley = 2,          ///< max(0, k d^n + lambda d^n d') with lambda = hc_alpha * k
+  PowerDamping = 3           ///< max(0, k d + pd_factor c (d / pd_dc)^pd_shape d')
 };
 
 /// @brief Table 2.1 of the dissertation plus the constants it withholds (l0, wob).
@@ -40,6 +41,11 @@ struct Params {
   // contact-law options (used when law != KelvinVoigt)
   double hc_n = 1.0;       ///< Hunt-Crossley exponent n
   double hc_alpha = 0.2;   ///< Hunt-Crossley damping factor (s/m): lambda = hc_alpha * k
+  double pd_factor = 1.0;  ///< power-damping factor on each surface's own damping c (-)
+  double pd_shape = 0.0;   ///< power-damping shape s: damping ~ (d / pd_dc)^s (-)
+  /// Power-damping characteristic indentation (m): the damping is pd_factor * c at d = pd_dc.
+  /// 1 mm is the size of the 7in tool's impacts (contact_law.hpp); a preset sets its own.
+  double pd_dc = 1e-3;
   ContactLawKind law = ContactLawKind::KelvinVoigt;
 
   /// @brief Gap between anvil and recoil spring with anvil on bit and bit on the on-bottom
