@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim.campaigns import Campaign, Event, Sensor
+from vadsim.model.change import ModelChange
 from vadsim.model.presets import Preset, get_preset
 from vadsim.model.settings import RunSettings
 from vadsim.model.simulate import G
@@ -40,6 +41,7 @@ def synthetic_campaign(
     extras: Sequence[Any] = (),
     law: str | None = None,
     measurement: Callable[[str, np.ndarray, float], np.ndarray] | None = None,
+    change: ModelChange | None = None,
     wob_klbf: float | Sequence[float] | None = None,
     sensors: Mapping[str, Sensor] | None = None,
     duration_s: float | None = None,
@@ -63,6 +65,10 @@ def synthetic_campaign(
         What happens to each sensor's true acceleration before its chain,
         ``measurement(sensor_name, a_g, fine_rate_hz) -> a_g`` (see
         :data:`vadsim.validate.Measurement`); e.g. a mount resonance.
+    change
+        A :class:`~vadsim.model.change.ModelChange` applied on top, at each event's flow
+        (scales, flow powers, theta0, extras, measurement): how a concealed truth is written
+        with exactly the change a diagnosis fits.
     wob_klbf
         One WOB for all events or one per event (default: the preset's).
     sensors
@@ -91,10 +97,15 @@ def synthetic_campaign(
     settle = cycles - analyse_cycles
     fine = SIMULATION_OVERSAMPLING * max(s.rate_hz for s in sensors.values())
     base = RunSettings(p, overrides=overrides or {}, extras=tuple(extras), law=law)
+    if change is not None and change.measurement is not None:
+        measurement = (change.measurement if measurement is None else
+                       ModelChange(measurement=measurement).combine(
+                           ModelChange(measurement=change.measurement)).measurement)
     events: list[Event] = []
     for i, (q, wob) in enumerate(zip(flows, wobs, strict=True)):
         n_an = math.ceil(duration_s * base.f_exc_hz(q)) if duration_s else analyse_cycles
-        r = base.with_changes(cycles=settle + n_an, analyse_cycles=n_an).run(
+        run = change.apply(base, q) if change is not None else base
+        r = run.with_changes(cycles=settle + n_an, analyse_cycles=n_an).run(
             q, wob_klbf=wob, record="window", output_rate_hz=fine)
         phase = float(rng.uniform(0.0, 1.0))
         columns: dict[str, np.ndarray] = {}

@@ -45,6 +45,7 @@ LAWS = {
     "kelvin_voigt": _core.ContactLawKind.KelvinVoigt,
     "kelvin_voigt_no_tension": _core.ContactLawKind.KelvinVoigtNoTension,
     "hunt_crossley": _core.ContactLawKind.HuntCrossley,
+    "power_damping": _core.ContactLawKind.PowerDamping,
 }
 
 
@@ -124,7 +125,13 @@ def _build_presets() -> dict[str, Preset]:
     table = table_2_1()
     base7 = {k: v for k, v in table["7in"].items() if k != "m1_RC"}
     base95 = dict(table["9.5in"])
-    defaults = {"hc_n": 1.0, "hc_alpha": 0.2}
+    # Law options: Hunt-Crossley's, and the power-damping family's (factor 1, shape 0 is
+    # Kelvin-Voigt without tension). pd_dc is the tool's typical impact indentation, so that
+    # pd_factor is the damping at a typical impact: 1 mm for the 7in tool (contact_law.hpp);
+    # 5 mm for the 9.5in tool, whose peak indentations at 400-750 gal/min are 1.5-2.8 mm at
+    # the spring, 7-9 mm at the impact face and 13 mm at the on-bottom shoulder (geometric
+    # mean 6 mm).
+    defaults = {"hc_n": 1.0, "hc_alpha": 0.2, "pd_factor": 1.0, "pd_shape": 0.0, "pd_dc": 1e-3}
     seven = {**base7, "l0": 0.7, "wob": 1000.0, **defaults}
     note7 = (
         "l0 = 0.7 m and wob = 1000 N/kg (m* = 17.8 kg for 4 klbf) reproduce the dissertation's "
@@ -137,7 +144,7 @@ def _build_presets() -> dict[str, Preset]:
     #       --starts 4 --profile 7
     # (l0 = 1.1308 +- 3e-5 m, wob = 455.7 +- 2.5 N/kg; RMS standardised residual 14.6 -> 0.16).
     # The first estimate (l0 = 0.95 m, wob = 1000) left the anvil resting on the bit.
-    ninefive = {**base95, "l0": 1.1308, "wob": 455.67, **defaults}
+    ninefive = {**base95, "l0": 1.1308, "wob": 455.67, **defaults, "pd_dc": 5e-3}
     note95 = (
         "l0 = 1.1308 m and wob = 455.67 N/kg (m* = 78.1 kg for 8 klbf), calibrated against the "
         "dissertation's 12 simulated 9.5in events (docs/CALIBRATION.md)."
@@ -279,7 +286,8 @@ def make_params(
         Parameters to replace, by name.
     law
         Contact law of the impact surfaces: ``"kelvin_voigt"`` (default),
-        ``"kelvin_voigt_no_tension"`` or ``"hunt_crossley"``.
+        ``"kelvin_voigt_no_tension"``, ``"hunt_crossley"`` (``hc_n``, ``hc_alpha``) or
+        ``"power_damping"`` (``max(0, k d + pd_factor c (d / pd_dc)^pd_shape d')``).
 
     Raises
     ------

@@ -72,11 +72,12 @@ def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
     Parameters
     ----------
     kind
-        ``"hydraulic"``: ``c * Q^2`` (N/kg per (gal/min)^2) pushing ``acts_on`` ("anvil" or
-        "bit") towards the rock. ``"friction"``: Coulomb friction of ``force`` N/kg between
-        ``body`` (default "anvil") and ``other`` (default "housing"), regularised over
-        ``v_eps`` m/s. ``"dashpot"``: spring ``k`` and dashpot ``c`` from ``body`` to
-        ``other`` (None: the ground), acting on displacements from the static state.
+        ``"hydraulic"``: ``c * Q^n`` (N/kg per (gal/min)^n, ``n`` in [0, 4], default 2: a
+        turbulent pressure drop) pushing ``acts_on`` ("anvil" or "bit") towards the rock.
+        ``"friction"``: Coulomb friction of ``force`` N/kg between ``body`` (default "anvil")
+        and ``other`` (default "housing"), regularised over ``v_eps`` m/s. ``"dashpot"``:
+        spring ``k`` and dashpot ``c`` from ``body`` to ``other`` (None: the ground), acting
+        on displacements from the static state.
     """
     def dof(arg: str, name: Any) -> int:
         if name is None and arg == "other":
@@ -97,7 +98,8 @@ def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
         acts_on = kw.pop("acts_on", "anvil")
         if acts_on not in ("anvil", "bit"):
             raise ValueError(f"hydraulic acts_on = {acts_on!r} must be 'anvil' or 'bit'")
-        out: _core.ExtraForce = _core.HydraulicForce(dof("acts_on", acts_on), need("c"))
+        out: _core.ExtraForce = _core.HydraulicForce(dof("acts_on", acts_on), need("c"),
+                                                     opt("n", 2.0))
     elif kind == "friction":
         body = dof("body", kw.pop("body", "anvil"))
         other = dof("other", kw.pop("other", "housing"))
