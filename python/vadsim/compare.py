@@ -9,6 +9,15 @@ recording's own spread? They answer it here, the same way, with the same failure
 2. **measure** the run through each sensor's chain, averaged over sampling phases, and at full
    resolution (:func:`measure_event`), optionally after measurement-side physics;
 3. compute the **recorded** features (:func:`recorded_features`);
+
+Folded evidence (:data:`FOLDED`, on by default; ``folded=False`` gives the features of before):
+a recorded time series is also folded by excitation phase (equivalent-time sampling,
+:mod:`vadsim.signals.folding`), which recovers the cycle's waveform -- the 1 ms impact spike
+included -- far beyond what 1024 Hz sampling shows, and the simulation gives the matching
+features from its fine grid through the sensors' analog chain
+(:mod:`vadsim.signals.fold_features`; the recording decides between folded and distribution
+features, the simulation computes every kind). They enter ``EventSimulation.sensor`` with a
+``phase_sd`` of 0, so residuals and the evaluator compare them like every other feature.
 4. **standardise** (:func:`standardised_residual`, the one definition of a residual;
    :func:`event_residuals` for an event, :func:`residual_table` for a campaign).
 
@@ -21,7 +30,9 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Hashable, Mapping, Sequence
+import threading
+from collections import OrderedDict
+from collections.abc import Hashable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -30,13 +41,16 @@ import numpy as np
 import pandas as pd
 
 from vadsim.campaigns.format import Campaign, Event
-from vadsim.model.settings import ExtraSpec, RunSettings
+from vadsim.model.change import Measurement, ModelChange
+from vadsim.model.settings import RunSettings
 from vadsim.model.simulate import G, SimulationResult, SolverError
 from vadsim.signals.features import Feature, event_features, summary_features
-from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
+from vadsim.signals.fold_features import model_fold_features, recorded_fold_features
+from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, analog_chain, sensor_chain
 
 __all__ = [
     "FAILED_RESIDUAL",
+    "FOLDED",
     "CampaignEvaluator",
     "EventEval",
     "EventSimulation",
@@ -58,35 +72,14 @@ FAILED_RESIDUAL = 10.0
 feature the run lost: large enough that a fit moves away, bounded so one failure does not
 swamp a campaign."""
 
-Measurement = Callable[[str, np.ndarray, float], np.ndarray]
-"""What happens to a sensor's true acceleration before its recorded chain:
-``measurement(sensor_name, a_g, fine_rate_hz) -> a_g`` on the solver's fine grid (e.g. a mount
-resonance or an axial-lateral coupling, :mod:`vadsim.fit.candidates`). ``None``: nothing."""
+FOLDED: bool = True
+"""Default of every ``folded`` argument (None means this): compare folded (or distribution)
+features of recorded time series besides the 200 ms window features. Set False for the
+comparison of before folding existed; campaigns of summary features only are unaffected."""
 
 
-@dataclass
-class ModelChange:
-    """A change to the base model: to the run (extras, law, overrides) and to the measurement.
-    The empty change is the base model itself."""
-
-    extras: list[ExtraSpec | Any] = field(default_factory=list)
-    law: str | None = None
-    overrides: dict[str, float] = field(default_factory=dict)
-    measurement: Measurement | None = None
-
-    @property
-    def changes_run(self) -> bool:
-        """Whether the model must run again (else the base runs are re-measured)."""
-        return bool(self.extras or self.law or self.overrides)
-
-    def apply(self, settings: RunSettings) -> RunSettings:
-        """The run settings with this change."""
-        if not self.changes_run:
-            return settings
-        changes: dict[str, Any] = {"overrides": self.overrides, "extras": tuple(self.extras)}
-        if self.law is not None:
-            changes["law"] = self.law
-        return settings.with_changes(**changes)
+def _use_folded(folded: bool | None) -> bool:
+    return FOLDED if folded is None else bool(folded)
 
 
 @dataclass
@@ -159,6 +152,17 @@ def _phase_average(per_phase: list[dict[str, Feature]]
     return out, sd
 
 
+def _model_folded(campaign: Campaign, r: SimulationResult,
+                  full: Mapping[str, np.ndarray]) -> dict[str, Feature]:
+    """Folded and distribution features of one rate group's fine-grid signals, through each
+    sensor's analog chain (its low-pass and range), folded at the run's exact frequency."""
+    analog = {}
+    for name, a in full.items():
+        s = campaign.sensors[name]
+        analog[name], _ = analog_chain(r.t, a, lowpass_hz=s.lowpass_hz, range_g=s.range_g)
+    return model_fold_features(r.t, analog, r.f_exc_hz)
+
+
 def measure_event(
     campaign: Campaign,
     event: Event,
@@ -169,6 +173,7 @@ def measure_event(
     seed: int | None = None,
     keep_signals: bool = False,
     measurement: Measurement | None = None,
+    folded: bool | None = None,
 ) -> EventSimulation:
     """Features of a run through each sensor's chain and at full resolution.
 
@@ -182,6 +187,12 @@ def measure_event(
 
     Kept apart from the run so that measurement-side physics (``measurement``) can be varied
     without running the model again.
+
+    With ``folded`` (default :data:`FOLDED`) the sensor features also hold every folded and
+    distribution feature a recording may have (:func:`vadsim.signals.fold_features.
+    model_fold_features`: the fine grid through each sensor's low-pass and range, folded at
+    the run's exact frequency, for periods 1-4), with a ``phase_sd`` of 0: a fold has no
+    sampling phase. The recording's keys select which are compared.
     """
     if not (isinstance(phases, int) and phases >= 1):
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
@@ -211,6 +222,10 @@ def measure_event(
         averaged, sd = _phase_average(per_phase)
         sensor_feats.update(averaged)
         phase_sd.update(sd)
+        if _use_folded(folded):
+            fx = _model_folded(campaign, r, full)
+            sensor_feats.update(fx)
+            phase_sd.update(dict.fromkeys(fx, 0.0))
         full_feats.update(event_features(full, fine, r.f_exc_hz))
     return EventSimulation(
         event_id=event.id, flow_gpm=event.flow_gpm, wob_klbf=float(event.wob_klbf),
@@ -222,25 +237,35 @@ def measure_event(
 
 def simulate_event(campaign: Campaign, event: Event, settings: RunSettings, *,
                    phases: int = 8, noise_g: float = 0.0, seed: int | None = None,
-                   keep_signals: bool = False, measurement: Measurement | None = None
-                   ) -> EventSimulation:
+                   keep_signals: bool = False, measurement: Measurement | None = None,
+                   folded: bool | None = None) -> EventSimulation:
     """:func:`run_event` then :func:`measure_event`."""
     r = run_event(campaign, event, settings)
     return measure_event(campaign, event, r, phases=phases, noise_g=noise_g, seed=seed,
-                         keep_signals=keep_signals, measurement=measurement)
+                         keep_signals=keep_signals, measurement=measurement, folded=folded)
 
 
 # ---------------------------------------------------------------------------- the recorded side
 
-def recorded_features(campaign: Campaign, event: Event, f_exc_hz: float) -> dict[str, Feature]:
-    """Features of a recorded event (time series), or its summary-only features."""
+def recorded_features(campaign: Campaign, event: Event, f_exc_hz: float, *,
+                      folded: bool | None = None) -> dict[str, Feature]:
+    """Features of a recorded event (time series), or its summary-only features.
+
+    With ``folded`` (default :data:`FOLDED`) a time series also gives its folded features
+    (the cycle waveform by equivalent-time sampling, with ``f_exc_hz`` refined on the record)
+    or, where it does not repeat, its distribution features
+    (:func:`vadsim.signals.fold_features.recorded_fold_features`).
+    """
     if event.data is None:
         return summary_features(event.features)
     out: dict[str, Feature] = {}
+    t0 = float(event.data["time_s"].iloc[0])
     for rate, names in sensor_groups(campaign).items():
         signals = {n: event.data[f"{n}_g"].to_numpy(float) for n in names}
         clipped = {n: event.clipped[n] for n in names if event.clipped.get(n) is not None}
         out.update(event_features(signals, rate, f_exc_hz, clipped=clipped or None))
+        if _use_folded(folded):
+            out.update(recorded_fold_features(signals, rate, f_exc_hz, t0=t0))
     if event.features:  # summary values given next to a time series win: they are stated
         out.update(summary_features(event.features))
     return out
@@ -352,26 +377,34 @@ class CampaignEvaluator:
         (the core's full-resolution summary, no time series).
     workers
         Threads (the core releases the GIL).
+    folded
+        Compare folded (or distribution) features of recorded time series too (default
+        :data:`FOLDED`); they join the keys both for the default targets and the simulations.
     """
 
     def __init__(self, campaign: Campaign, settings: RunSettings, *,
                  targets: Mapping[str, Mapping[str, Feature]] | None = None,
                  keys: Mapping[str, Sequence[str]] | None = None, resolution: str = "sensor",
-                 phases: int = 8, workers: int | None = None) -> None:
+                 phases: int = 8, workers: int | None = None,
+                 folded: bool | None = None) -> None:
         if resolution not in ("sensor", "full"):
             raise ValueError(f"resolution = {resolution!r} must be 'sensor' or 'full'")
         if not (isinstance(phases, int) and phases >= 1):
             raise ValueError(f"phases = {phases!r} must be an integer >= 1")
         self.campaign, self.settings = campaign, settings
         self.resolution, self.phases = resolution, phases
+        self.folded = _use_folded(folded)
         self.workers = workers or os.cpu_count() or 1
         self.events = {ev.id: ev for ev in campaign.events}
         self.targets = ({e: dict(t) for e, t in targets.items()} if targets is not None else
-                        {ev.id: recorded_features(campaign, ev, settings.f_exc_hz(ev.flow_gpm))
+                        {ev.id: recorded_features(campaign, ev, settings.f_exc_hz(ev.flow_gpm),
+                                                  folded=self.folded)
                          for ev in campaign.events})
         self.keys: dict[str, list[str]] = {e: list(k) for e, k in (keys or {}).items()}
         self.n_evals = 0
         self._runs: dict[str, SimulationResult | None] = {}
+        self._shared: OrderedDict[tuple[Any, str], SimulationResult] = OrderedDict()
+        self._shared_lock = threading.Lock()
         self._cache: dict[tuple[Hashable, str], EventEval] = {}
         self._pool = ThreadPoolExecutor(max_workers=self.workers)
 
@@ -398,19 +431,39 @@ class CampaignEvaluator:
                 self._runs[eid] = None
         return self._runs[eid]
 
+    def _changed_run(self, change: ModelChange, eid: str) -> SimulationResult:
+        """A run under a change. Runs of changes with a measurement are kept (the last
+        ``2 x events``) by the run side of the change: a measurement-side candidate fitted at
+        fitted nuisance constants re-measures the same runs at every grid point."""
+        ev = self.events[eid]
+        if change.measurement is None:
+            return run_event(self.campaign, ev, change.apply(self.settings, ev.flow_gpm))
+        key = (change.run_key(), eid)
+        with self._shared_lock:
+            r = self._shared.get(key)
+            if r is not None:
+                self._shared.move_to_end(key)
+                return r
+        r = run_event(self.campaign, ev, change.apply(self.settings, ev.flow_gpm))
+        with self._shared_lock:
+            self._shared[key] = r
+            while len(self._shared) > 2 * len(self.events):
+                self._shared.popitem(last=False)
+        return r
+
     def simulate(self, change: ModelChange | None, eid: str) -> EventSimulation | None:
         """One event under a change (None: the base model); None if its run fails."""
         ev = self.events[eid]
         change = change or ModelChange()
         try:
             if self.resolution == "full":
-                return summary_event(self.campaign, ev, change.apply(self.settings))
-            r = (run_event(self.campaign, ev, change.apply(self.settings)) if change.changes_run
+                return summary_event(self.campaign, ev, change.apply(self.settings, ev.flow_gpm))
+            r = (self._changed_run(change, eid) if change.changes_run
                  else self._base_run(eid))
             if r is None:
                 return None
             return measure_event(self.campaign, ev, r, phases=self.phases,
-                                 measurement=change.measurement)
+                                 measurement=change.measurement, folded=self.folded)
         except (SolverError, ValueError):
             return None
 
@@ -469,10 +522,11 @@ class CampaignEvaluator:
     def table(self, z: np.ndarray, eids: Sequence[str] | None = None) -> pd.DataFrame:
         """Events x keys table of concatenated residuals (as :meth:`residuals` returns them)."""
         eids = list(eids) if eids is not None else self.event_ids
-        df = pd.DataFrame(index=eids, dtype=float)
+        rows: dict[str, dict[str, float]] = {}
         i = 0
-        for e in eids:
-            for k in self.keys[e]:
-                df.loc[e, k] = z[i]
-                i += 1
-        return df
+        for e in eids:  # built at once: a cell at a time fragments the frame (~70 keys/event)
+            rows[e] = {k: float(z[i + j]) for j, k in enumerate(self.keys[e])}
+            i += len(self.keys[e])
+        columns = list(dict.fromkeys(k for e in eids for k in self.keys[e]))
+        return pd.DataFrame.from_dict(rows, orient="index", columns=columns,
+                                      dtype=float).reindex(eids)

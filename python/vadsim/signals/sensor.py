@@ -24,7 +24,13 @@ from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from vadsim._checks import finite_1d, finite_positive, number
 
-__all__ = ["LOWPASS_ORDER", "MIN_OVERSAMPLING", "SIMULATION_OVERSAMPLING", "sensor_chain"]
+__all__ = [
+    "LOWPASS_ORDER",
+    "MIN_OVERSAMPLING",
+    "SIMULATION_OVERSAMPLING",
+    "analog_chain",
+    "sensor_chain",
+]
 
 LOWPASS_ORDER: int = 4
 """Order of the Butterworth anti-alias low-pass."""
@@ -49,9 +55,6 @@ _UNIFORM_RTOL: float = 1e-6
 # As RECORDINGS.md for the recorded time column: steps equal to 1e-6 of the step.
 
 
-
-
-
 def _fine_step(t: np.ndarray) -> float:
     if t.size < 2:
         raise ValueError(f"t needs at least 2 samples, got {t.size}")
@@ -67,6 +70,71 @@ def _fine_step(t: np.ndarray) -> float:
             f"t[{worst + 1}] - t[{worst}] = {steps[worst]!r}"
         )
     return dt
+
+def _lowpass(a: np.ndarray, fine_rate: float, lowpass_hz: float | None) -> np.ndarray:
+    """The sensor's anti-alias filter on the fine grid (step 1 of the module docstring)."""
+    if lowpass_hz is None:
+        return a
+    lowpass_hz = finite_positive("lowpass_hz", lowpass_hz)
+    if lowpass_hz >= 0.5 * fine_rate:
+        raise ValueError(
+            f"lowpass_hz={lowpass_hz!r} must be below the Nyquist frequency of the fine "
+            f"grid t ({0.5 * fine_rate:.6g} Hz)"
+        )
+    sos = butter(LOWPASS_ORDER, lowpass_hz, btype="lowpass", fs=fine_rate, output="sos")
+    out, _ = sosfilt(sos, a, zi=sosfilt_zi(sos) * a[0])
+    return np.asarray(out, dtype=float)
+
+
+def analog_chain(
+    t: npt.ArrayLike,
+    a_g: npt.ArrayLike,
+    lowpass_hz: float | None = None,
+    range_g: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The analog part of the sensor chain on the fine grid itself: low-pass, then clipping.
+
+    Why: equivalent-time sampling (:mod:`vadsim.signals.folding`) recovers the waveform a
+    sensor *sees* at every phase of the cycle, i.e. the signal after the sensor's anti-alias
+    filter and range but before the sampling; a simulated signal is compared with it after
+    exactly these two steps of :func:`sensor_chain` (the same filter, run the same causal
+    way, and the same rails), without the sampling at ``rate_hz`` and without noise.
+    Clipping is pointwise, so clipping the fine grid is what clipping the samples taken from
+    it would give.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Uniform, strictly increasing fine-grid times, s.
+    a_g : array_like, shape (n,)
+        Acceleration on that grid, g.
+    lowpass_hz : float or None, optional
+        The sensor's anti-alias corner, Hz, as in :func:`sensor_chain`; None for no filter.
+    range_g : float or None, optional
+        The sensor's range, g; None for no clipping.
+
+    Returns
+    -------
+    a_s : numpy.ndarray
+        The filtered, clipped acceleration on the fine grid, g.
+    clipped_mask : numpy.ndarray of bool
+        True where ``|a_s| == range_g`` (all False without a range).
+
+    Raises
+    ------
+    ValueError
+        As :func:`sensor_chain` for ``t``, ``a_g``, ``lowpass_hz`` and ``range_g``.
+    """
+    t = finite_1d("t", t)
+    a = finite_1d("a_g", a_g)
+    if a.shape != t.shape:
+        raise ValueError(f"a_g must have the length of t ({t.size}), got {a.size}")
+    a = _lowpass(a, 1.0 / _fine_step(t), lowpass_hz)
+    if range_g is None:
+        return a, np.zeros(a.size, dtype=bool)
+    range_g = finite_positive("range_g", range_g)
+    clipped = np.abs(a) >= range_g
+    return np.clip(a, -range_g, range_g), clipped
 
 
 def sensor_chain(
@@ -153,15 +221,7 @@ def sensor_chain(
             f"grid must be at least {MIN_OVERSAMPLING:g} times faster than the sensor"
         )
 
-    if lowpass_hz is not None:
-        lowpass_hz = finite_positive("lowpass_hz", lowpass_hz)
-        if lowpass_hz >= 0.5 * fine_rate:
-            raise ValueError(
-                f"lowpass_hz={lowpass_hz!r} must be below the Nyquist frequency of the fine "
-                f"grid t ({0.5 * fine_rate:.6g} Hz)"
-            )
-        sos = butter(LOWPASS_ORDER, lowpass_hz, btype="lowpass", fs=fine_rate, output="sos")
-        a, _ = sosfilt(sos, a, zi=sosfilt_zi(sos) * a[0])
+    a = _lowpass(a, fine_rate, lowpass_hz)
 
     n_samples = math.floor((t[-1] - t[0]) * rate_hz - phase + 1e-9) + 1
     t_s = t[0] + (np.arange(n_samples) + phase) / rate_hz
