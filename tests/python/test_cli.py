@@ -195,3 +195,18 @@ def test_campaign_outside_its_folder_needs_allow_outside(tmp_path, capsys) -> No
     assert main(args) == 2
     assert "leaves the campaign folder" in capsys.readouterr().err
     assert main([*args, "--allow-outside"]) == 0
+
+
+def test_blind_lists_classes_and_refuses_an_unknown_one(capsys, tmp_path):
+    """--list prints every class with its count and runs nothing; an unknown class exits 2
+    before a folder is made."""
+    from vadsim.blind import DEFAULT_SCENARIOS, class_counts
+
+    assert main(["blind", "--list"]) == 0
+    out = capsys.readouterr().out
+    for name, n in class_counts().items():
+        assert f"{name}" in out and f" {n} " in out
+    assert "total" in out and str(len(DEFAULT_SCENARIOS)) in out
+    assert main(["blind", "--out", str(tmp_path / "x"), "--classes", "pair,foo"]) == 2
+    assert "unknown blind class(es) foo" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

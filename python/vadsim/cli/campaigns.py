@@ -44,19 +44,28 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
     _add_calibrate(sub, parents)
     _add_diagnose(sub, parents)
     bl = sub.add_parser(
-        "blind", help="blind benchmark of diagnose on campaigns with concealed physics",
-        description="Write campaigns (RECORDINGS.md format) from the 7in model plus one "
-        "concealed effect (each candidate at two magnitudes, and five with none), through the "
-        "sensor chain with noise; diagnose each from disk without the truth; score "
-        "identification, false alarms, parameter error and held-out improvement (scores.md, "
-        "scores.json). Resumes from finished results in OUT/results.",
+        "blind", help="blind benchmark of diagnose on classes of campaigns with concealed physics",
+        description="Write campaigns (RECORDINGS.md format) in classes -- nulls, a nuisance "
+        "(WOB reading, excitation phase at rest) only, an effect under a nuisance, pairs of "
+        "effects, generic effects, one-sensor effects, the RC bit, five events, 1 g noise "
+        "(--list) -- through the sensor chain with noise, under neutral shuffled names; "
+        "diagnose each from disk without the truth; score per class and overall "
+        "(identification, variants, false alarms, parameter error, held-out improvement, "
+        "nuisance recovery, PASS/FAIL per acceptance criterion) in scores.md and scores.json. "
+        "Resumes from finished results in OUT/results; more classes can be added to OUT later.",
         parents=[workers_parent(what="worker processes per diagnosis"), parents.quiet],
     )
     bl.add_argument("--out", default="blind-benchmark", help="folder (default blind-benchmark)")
-    bl.add_argument("--only", nargs="+", help="only these candidate ids (and 'none')")
-    bl.add_argument("--duration", type=float, default=8.0, help="seconds per event (8)")
-    bl.add_argument("--noise", type=float, default=0.3, help="sensor noise, g (0.3)")
+    bl.add_argument("--classes", type=lambda t: [c.strip() for c in t.split(",") if c.strip()],
+                    metavar="A,B", help="only these classes (default all; see --list)")
+    bl.add_argument("--list", action="store_true",
+                    help="print the classes, their campaign counts and what each tests; no run")
+    bl.add_argument("--duration", type=float, default=None,
+                    help="seconds per event for every campaign (default each scenario's, 8)")
     bl.add_argument("--seed", type=int, default=2026)
+    bl.add_argument("--score-finished", action="store_true",
+                    help="score the campaigns already diagnosed in OUT and run nothing (e.g. "
+                    "while a long run is stopped); the scores say how many they cover")
     bl.set_defaults(func=_cmd_blind)
 
 
@@ -109,11 +118,12 @@ def _add_calibrate(sub: Subparsers, parents: Parents) -> None:
 def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
     dg = sub.add_parser(
         "diagnose", help="locate a mismatch, fit candidate physics, select on held-out events",
-        description="Compare the base model with CAMPAIGN feature by feature, say where they "
-        "disagree, fit every candidate physics (hydraulic_force, contact_law, anvil_friction, "
-        "string_radiation, axial_lateral, sensor_chain), rank them on held-out events "
-        "(leave-one-flow-out and a high-flow block, AICc) and name the missing physics or "
-        "'none'. Writes a report (diagnosis.md/.html, diagnosis.json, figures). Example: "
+        description="Calibrate the base model's nuisance constants (WOB scale, excitation "
+        "phase at rest), compare it with CAMPAIGN feature by feature, say where they "
+        "disagree, fit every candidate physics with the nuisance constants, select effects "
+        "one at a time on held-out events (leave-one-flow-out and a high-flow block, AICc), "
+        "and give a verdict: the missing physics, 'none', or an unexplained mismatch. "
+        "Writes a report (diagnosis.md/.html, diagnosis.json, figures). Example: "
         "vadsim diagnose thesis:7in-cde --predict thesis:7in-rc --json",
         parents=[parents.overrides, length_parent(cycles=300), parents.quiet,
                  workers_parent(what="worker processes for the candidates")],
@@ -133,6 +143,16 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
                     help="held-out AICc margin a candidate needs over 'none' (10)")
     dg.add_argument("--min-reduction", type=float, default=0.3,
                     help="held-out RMS reduction a candidate needs, fraction (0.3)")
+    dg.add_argument("--nuisance", action="append", metavar="NAME=LO:HI", default=None,
+                    help="a constant fitted with every hypothesis (repeatable; default: "
+                    "wob_scale=0.85:1.15 and theta0=0:3.1416; NAME: wob_scale, theta0 or a "
+                    "model parameter); given ones replace a default of the same name")
+    dg.add_argument("--no-nuisance", action="store_true",
+                    help="fit no nuisance constant (the base model's values are taken as exact)")
+    dg.add_argument("--max-effects", type=int, default=3,
+                    help="most effects forward selection adds (3)")
+    dg.add_argument("--max-rms", type=float, default=2.0,
+                    help="held-out RMS z above which the verdict is 'unexplained' (2)")
     dg.set_defaults(func=_cmd_diagnose)
 
 
@@ -222,12 +242,15 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from vadsim.fit.diagnose import diagnose, predict
+    from vadsim.fit.nuisance import DEFAULT_NUISANCE
     from vadsim.report.diagnosis import write_diagnosis_report
 
-    diag = diagnose(_campaign(args), candidates=args.candidates,
+    nuisance: list[Any] = [] if args.no_nuisance else [*DEFAULT_NUISANCE, *(args.nuisance or [])]
+    diag = diagnose(_campaign(args), candidates=args.candidates, nuisance=nuisance,
                     overrides=parse_overrides(args.set), cycles=args.cycles,
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
+                    max_effects=args.max_effects, max_rms=args.max_rms,
                     workers=args.workers, progress=not args.quiet)
     if args.predict:
         predict(diag, args.predict, workers=args.workers)
@@ -241,15 +264,18 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_blind(args: argparse.Namespace) -> int:
-    from vadsim.blind import DEFAULT_SCENARIOS, blind_benchmark
+    from vadsim.blind import CLASSES, blind_benchmark, class_counts, scenarios_of
 
-    scenarios = DEFAULT_SCENARIOS
-    if args.only:
-        scenarios = tuple(s for s in DEFAULT_SCENARIOS if s.id in args.only or s.key in args.only)
-        if not scenarios:
-            raise ValueError(f"--only {' '.join(args.only)}: no scenario has that candidate")
-    sc = blind_benchmark(args.out, scenarios=scenarios, duration_s=args.duration,
-                         noise_g=args.noise, seed=args.seed, workers=args.workers,
+    if args.list:
+        counts = class_counts()
+        width = max(len(c) for c in counts)
+        for name, n in counts.items():
+            print(f"{name:{width}s} {n:3d}  {CLASSES.get(name, '')}")
+        print(f"{'total':{width}s} {sum(counts.values()):3d}")
+        return 0
+    scenarios_of(args.classes)  # an unknown class: exit 2 before any work
+    sc = blind_benchmark(args.out, args.classes, duration_s=args.duration, seed=args.seed,
+                         workers=args.workers, finished_only=args.score_finished,
                          progress=False if args.quiet else lambda m: print(f"  {m}", flush=True))
     print(Path(args.out, "scores.md").read_text())
     return 0 if sc["campaigns"] else 1

@@ -38,7 +38,7 @@ __all__ = [
 ]
 
 DEFAULT_PRESET = "7in-cde"
-LAWS = ("kelvin_voigt", "kelvin_voigt_no_tension", "hunt_crossley")
+LAWS = ("kelvin_voigt", "kelvin_voigt_no_tension", "hunt_crossley", "power_damping")
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 

@@ -38,7 +38,8 @@ def write_diagnosis_report(diag: Diagnosis, folder: str | os.PathLike[str],
         overrides=diag.settings["overrides"] or "",
         located_events=[{**le, "worst": ", ".join(f"{k} {v:+.1f}" for k, v in le["worst"].items())}
                         for le in diag.located_events],
-        ranking=_ranking(diag), verdict=_verdict(diag), prediction=_prediction(diag),
+        steps=_ranking(diag), nuisance=_nuisance(diag), verdict=_verdict(diag),
+        prediction=_prediction(diag),
         figures=figures,
     )
     return write(out, "diagnosis", fmt, text)
@@ -48,33 +49,73 @@ def _parameters(values: dict[str, Any]) -> str:
     return ", ".join(f"{k} = {fmt_value(v)}" for k, v in values.items())
 
 
-def _ranking(diag: Diagnosis) -> pd.DataFrame:
-    """The base model and every candidate: parameters, held-out RMS, score."""
-    base = diag.baseline
-    rows = [{"candidate": f.key, "k": str(f.k), "parameters": _parameters(f.parameters) or "-",
-             "held-out RMS (LOFO / block)": f"{f.heldout_rms:.3f} ({f.heldout_rms_lofo:.3f} / "
-                                            f"{f.heldout_rms_block:.3f})",
-             "score": f"{f.score:.1f}", "delta vs none": f"{f.score - base.score:+.1f}"}
-            for f in [base, *diag.ranking]]
-    return pd.DataFrame(rows).set_index("candidate")
+def _ranking(diag: Diagnosis) -> list[dict[str, Any]]:
+    """One table per forward-selection step: each hypothesis' fitted values, held-out RMS and
+    score against the model it extends."""
+    tables = []
+    current = diag.baseline
+    for i, step in enumerate(diag.steps):
+        rows = [{"hypothesis": f.key, "k": str(f.k), "values": _parameters(f.values) or "-",
+                 "held-out RMS (LOFO / block)": f"{f.heldout_rms:.3f} "
+                                                f"({f.heldout_rms_lofo:.3f} / "
+                                                f"{f.heldout_rms_block:.3f})",
+                 "score": f"{f.score:.1f}", "delta": f"{f.score - current.score:+.1f}"}
+                for f in ([current] + step if i == 0 else step)]
+        tables.append({"step": i + 1, "extends": current.key,
+                       "table": pd.DataFrame(rows).set_index("hypothesis")})
+        chosen = diag.chosen
+        if chosen is None or len(chosen.keys) <= i:
+            break
+        current = next((f for f in step if f.keys == chosen.keys[:i + 1]), current)
+    return tables
 
 
-def _verdict(diag: Diagnosis) -> dict[str, Any] | None:
-    """The chosen candidate's parameters with their intervals, None if none was chosen."""
-    c = diag.chosen
-    if c is None:
+def _nuisance(diag: Diagnosis) -> pd.DataFrame | None:
+    """The nuisance constants of the calibrated base model and of the final model."""
+    base, final = diag.baseline, diag.final
+    if not base.nuisance:
         return None
-    cand = CANDIDATES[c.key]
-    params = []
-    for p in cand.params:
-        lo, hi = c.interval.get(p.name, (math.nan, math.nan))
-        params.append(f"{p.name} = {fmt_value(c.values[p.name])} {p.unit} "
-                      f"(95 % profile interval {fmt_value(lo)} to {fmt_value(hi)})")
-    params += [f"{k} = {v}" for k, v in cand.fixed.items()]
+    _, base_iv = base.intervals_by_id()
+    _, final_iv = final.intervals_by_id()
+    rows = []
+    for spec in base.nuisance_specs:
+        name = spec.name
+        rows.append({"constant": name, "nominal": fmt_value(spec.null),
+                     "range": f"{fmt_value(spec.lo)} to {fmt_value(spec.hi)} {spec.unit}",
+                     "none (calibrated)": f"{fmt_value(base.nuisance[name])} "
+                                          f"{_iv(base_iv.get(name))}",
+                     "final model": f"{fmt_value(final.nuisance[name])} "
+                                    f"{_iv(final_iv.get(name))}"})
+    return pd.DataFrame(rows).set_index("constant")
+
+
+def _iv(iv: tuple[float, float] | None) -> str:
+    return f"[{fmt_value(iv[0])}, {fmt_value(iv[1])}]" if iv else ""
+
+
+def _verdict(diag: Diagnosis) -> dict[str, Any]:
+    """The verdict sentence and, per chosen candidate, its parameters with intervals."""
+    c = diag.chosen
+    effects = []
+    if c is not None:
+        cand_iv, _ = c.intervals_by_id()
+        for key, vals in c.hypothesis.split(c.point)[0].items():
+            cand = CANDIDATES[key]
+            ivs = cand_iv.get(cand.id, {})
+            params = [f"{p.name} = {fmt_value(vals[p.name])} {p.unit} (95 % profile interval "
+                      f"{fmt_value(ivs.get(p.name, (math.nan,))[0])} to "
+                      f"{fmt_value(ivs.get(p.name, (math.nan, math.nan))[1])})"
+                      for p in cand.params]
+            params += [f"{k} = {v}" for k, v in cand.fixed.items()]
+            effects.append({"id": cand.id, "key": key, "signature": cand.signature,
+                            "params": params})
     b = diag.baseline.heldout_rms
-    return {"id": c.id, "signature": cand.signature, "params": params,
-            "reduction": f"held-out RMS {b:.3f} -> {c.heldout_rms:.3f} "
-                         f"({100 * (1 - c.heldout_rms / b):.0f} % lower)"}
+    f = diag.final.heldout_rms
+    return {"kind": diag.verdict, "text": diag.verdict_text(), "effects": effects,
+            "unexplained": [{**u, "worst": ", ".join(f"{k} {v:+.1f}"
+                                                     for k, v in u["worst"].items())}
+                            for u in diag.unexplained],
+            "reduction": f"held-out RMS {b:.3f} -> {f:.3f} ({100 * (1 - f / b):.0f} % lower)"}
 
 
 def _prediction(diag: Diagnosis) -> dict[str, Any] | None:

@@ -1,0 +1,7 @@
+"""``python -m vadsim``: the same as the ``vadsim`` command."""
+
+import sys
+
+from vadsim.cli import main
+
+sys.exit(main())

@@ -1,0 +1,479 @@
+"""A hypothesis -- some candidate physics plus the nuisance constants -- fitted to a campaign
+and scored on held-out events.
+
+Why this module exists: a diagnosis compares many models of the same campaign (the calibrated
+base model, each candidate, pairs of candidates), and every one must be fitted and scored the
+same way or the comparison is meaningless. Here one :class:`Hypothesis` is a list of candidates
+and nuisance constants; its parameters form one point, searched in the unit box of their
+:class:`~vadsim.fit.candidates.ParamSpec` (log where the effect spans decades, wrapping where
+the constant is periodic). The stages:
+
+* **grid** over some coordinates (the others held: e.g. a candidate's parameters at the
+  nuisance constants "none" fitted);
+* **refine** locally: bounded Brent along one coordinate, Nelder-Mead in several (the joint
+  refinement of a candidate with the nuisance constants);
+* **interval**: a 95 % profile interval per parameter from every point evaluated on all
+  events, ``RSS <= RSS_min + 3.84 s^2`` with ``s^2 = RSS_min / (n - k)``;
+* **held-out score**: each fold chooses, among the points evaluated on every event, the one
+  with the lowest *training* cost (refined by a parabola when the hypothesis has a single
+  coordinate) and predicts its held-out events; the error is the RMS standardised residual
+  pooled over all held-out predictions, and the score an AICc on those residuals.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Hashable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import optimize
+
+from vadsim.compare import CampaignEvaluator, EventEval
+from vadsim.fit.candidates import CANDIDATES, Candidate, ParamSpec
+from vadsim.fit.nuisance import NuisanceSpec
+from vadsim.model.change import ModelChange
+
+__all__ = ["Fold", "Hypothesis", "HypothesisCosts", "HypothesisFit", "Point", "aicc",
+           "fit_hypothesis"]
+
+Point = tuple[float, ...]
+Fold = tuple[str, list[str], list[str]]
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """Candidates (by key) and nuisance constants; a point is their parameters in order."""
+
+    keys: tuple[str, ...] = ()
+    nuisance: tuple[NuisanceSpec, ...] = ()
+
+    @property
+    def candidates(self) -> list[Candidate]:
+        """The candidates, in selection order."""
+        return [CANDIDATES[k] for k in self.keys]
+
+    @property
+    def key(self) -> str:
+        """``"none"`` or the candidates' keys joined by ``+``."""
+        return "+".join(self.keys) or "none"
+
+    @property
+    def specs(self) -> list[ParamSpec]:
+        """Every coordinate: the candidates' parameters, then the nuisance constants."""
+        return [p for c in self.candidates for p in c.params] + list(self.nuisance)
+
+    @property
+    def n_physics(self) -> int:
+        """Coordinates that belong to candidate physics."""
+        return sum(len(c.params) for c in self.candidates)
+
+    def extend(self, key: str) -> Hypothesis:
+        """This hypothesis plus one candidate."""
+        return Hypothesis((*self.keys, key), self.nuisance)
+
+    def null_point(self) -> Point:
+        """Candidates where they vanish (else the middle of their box); nuisance at base."""
+        out = []
+        for p in self.specs:
+            out.append(p.null if p.null is not None else p.from_unit(0.5))
+        return self.round(out)
+
+    def round(self, values: Sequence[float]) -> Point:
+        """A point with 6 significant digits (cache keys of runs must repeat exactly)."""
+        return tuple(float(f"{float(v):.6g}") for v in values)
+
+    def unit(self, point: Point) -> np.ndarray:
+        """Point -> position in the unit box."""
+        return np.array([p.to_unit(v) for p, v in zip(self.specs, point, strict=True)])
+
+    def from_unit(self, u: Sequence[float] | np.ndarray) -> Point:
+        """Position in the unit box (wrapped or clipped) -> point."""
+        vals = []
+        for p, x in zip(self.specs, u, strict=True):
+            x = p.wrap(x) if isinstance(p, NuisanceSpec) else min(max(float(x), 0.0), 1.0)
+            vals.append(p.from_unit(x))
+        return self.round(vals)
+
+    def split(self, point: Point) -> tuple[dict[str, dict[str, float]], dict[str, float]]:
+        """``({candidate key: {param: value}}, {nuisance name: value})``."""
+        cands: dict[str, dict[str, float]] = {}
+        i = 0
+        for c in self.candidates:
+            cands[c.key] = {p.name: point[i + j] for j, p in enumerate(c.params)}
+            i += len(c.params)
+        return cands, {p.name: point[i + j] for j, p in enumerate(self.nuisance)}
+
+    def change(self, point: Point) -> ModelChange:
+        """The model change at ``point``."""
+        cands, nuis = self.split(point)
+        out = ModelChange()
+        for c in self.candidates:
+            out = out.combine(c.change(cands[c.key]))
+        for p in self.nuisance:
+            out = out.combine(p.change(nuis[p.name]))
+        return out
+
+
+class HypothesisCosts:
+    """A hypothesis' evaluations on the comparison engine, by point; remembers the points
+    evaluated on every event (for the profile interval and the folds)."""
+
+    def __init__(self, ev: CampaignEvaluator, hyp: Hypothesis, eids: list[str]) -> None:
+        self.ev, self.hyp, self.eids = ev, hyp, eids
+        self.points: dict[Point, None] = {}
+
+    def _item(self, point: Point) -> tuple[Hashable, ModelChange | None]:
+        if not self.hyp.specs:
+            return "base", None
+        return (self.hyp.key, point), self.hyp.change(point)
+
+    def evaluate(self, points: Sequence[Point], eids: Sequence[str] | None = None
+                 ) -> dict[tuple[Point, str], EventEval]:
+        """Evaluations of every (point, event), in parallel where not cached."""
+        eids = list(eids) if eids is not None else self.eids
+        items = {pt: self._item(pt) for pt in points}
+        got = self.ev.evaluate(list(items.values()), eids)
+        if set(eids) == set(self.eids):
+            self.points.update(dict.fromkeys(points))
+        return {(pt, e): got[(items[pt][0], e)] for pt in points for e in eids}
+
+    def rss(self, point: Point) -> float:
+        """Sum of squared residuals over the fit's events."""
+        got = self.evaluate([point])
+        return float(sum(np.sum(got[(point, e)].z ** 2) for e in self.eids))
+
+    def event_rss(self, points: Sequence[Point]) -> np.ndarray:
+        """Points x events sums of squared residuals."""
+        got = self.evaluate(points)
+        return np.array([[np.sum(got[(p, e)].z ** 2) for e in self.eids] for p in points])
+
+
+# ------------------------------------------------------------------------------- search stages
+
+def grid_points(hyp: Hypothesis, start: Point, free: Sequence[int],
+                max_per_axis: int | None = None) -> list[Point]:
+    """The grid over the ``free`` coordinates (each spec's ``grid`` points, at most
+    ``max_per_axis``; a periodic one starts at ``start``), the others held at ``start``.
+    The start point itself is always included."""
+    specs, u0 = hyp.specs, hyp.unit(start)
+    axes = []
+    for i in free:
+        p = specs[i]
+        n = p.grid if max_per_axis is None else min(p.grid, max_per_axis)
+        if isinstance(p, NuisanceSpec) and p.periodic:
+            axes.append([(u0[i] + k / n) % 1.0 for k in range(n)])
+        else:
+            axes.append(sorted({*np.linspace(0.0, 1.0, n).tolist(), float(u0[i])}))
+    out: dict[Point, None] = {start: None}
+    for combo in np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(free), -1).T:
+        u = u0.copy()
+        u[list(free)] = combo
+        out[hyp.from_unit(u)] = None
+    return list(out)
+
+
+def refine(costs: HypothesisCosts, start: Point, free: Sequence[int], maxfev: int
+           ) -> tuple[float, Point]:
+    """Local refinement of ``free`` coordinates from ``start``: bounded Brent within one grid
+    step along a single non-periodic coordinate, Nelder-Mead (wrapping periodic ones)
+    otherwise. Returns the best (rss, point) seen, never worse than the start."""
+    hyp = costs.hyp
+    specs, u0 = hyp.specs, hyp.unit(start)
+    free = list(free)
+    if not free or maxfev <= 0:
+        return costs.rss(start), start
+
+    def at(x: np.ndarray) -> Point:
+        u = u0.copy()
+        u[free] = x
+        return hyp.from_unit(u)
+
+    def cost(x: np.ndarray) -> float:
+        return costs.rss(at(x))
+
+    steps = np.array([0.5 / max(specs[i].grid - 1, 1) for i in free])
+    one = len(free) == 1 and not getattr(specs[free[0]], "periodic", False)
+    if one:
+        lo, hi = max(0.0, u0[free[0]] - 2 * steps[0]), min(1.0, u0[free[0]] + 2 * steps[0])
+        r = optimize.minimize_scalar(lambda x: cost(np.array([x])), bounds=(lo, hi),
+                                     method="bounded",
+                                     options={"maxiter": maxfev, "xatol": 1e-3})
+        found = (float(r.fun), at(np.array([r.x])))
+    else:
+        x0 = u0[free]
+        simplex = np.vstack([x0] + [x0 + np.eye(len(free))[j] * steps[j]
+                                    for j in range(len(free))])
+        r = optimize.minimize(cost, x0, method="Nelder-Mead",
+                              options={"initial_simplex": simplex, "maxfev": maxfev,
+                                       "xatol": 1e-3, "fatol": 1e-3})
+        found = (float(r.fun), at(r.x))
+    return min([found, (costs.rss(start), start)])
+
+
+def profile_interval(hyp: Hypothesis, points: list[Point], rss: np.ndarray, n: int
+                     ) -> list[tuple[float, float]]:
+    """95 % profile interval per coordinate from the evaluated points, widened to the
+    neighbouring evaluated values outside it (the interval lies between them)."""
+    k = len(hyp.specs)
+    best = float(rss.min())
+    limit = best + 3.84 * best / max(n - k, 1)
+    out = []
+    for j, p in enumerate(hyp.specs):
+        vals = np.array([pt[j] for pt in points])
+        uniq = np.unique(vals)
+        prof = np.array([rss[vals == v].min() for v in uniq])
+        inside = uniq[prof <= limit]
+        lo, hi = float(inside.min()), float(inside.max())
+        below, above = uniq[uniq < lo], uniq[uniq > hi]
+        out.append((float(below.max()) if below.size else p.lo,
+                    float(above.min()) if above.size else p.hi))
+    return out
+
+
+def aicc(n: int, mse: float, k: int) -> float:
+    """Corrected Akaike criterion of ``n`` residuals with mean square ``mse`` and ``k``
+    fitted parameters."""
+    pen = 2 * k + (2 * k * (k + 1) / (n - k - 1) if n - k - 1 > 0 else math.inf)
+    return n * math.log(max(mse, 1e-12)) + pen
+
+
+def _parabola_min(u: np.ndarray, c: np.ndarray) -> float:
+    """Minimum of the parabola through the best point and its neighbours (1-D)."""
+    i = int(np.argmin(c))
+    if i == 0 or i == len(u) - 1:
+        return float(u[i])
+    x0, x1, x2 = u[i - 1], u[i], u[i + 1]
+    y0, y1, y2 = c[i - 1], c[i], c[i + 1]
+    den = (x0 - x1) * (x0 - x2) * (x1 - x2)
+    if den == 0:
+        return float(x1)
+    a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
+    b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / den
+    if a <= 0:
+        return float(x1)
+    return float(min(max(-b / (2 * a), x0), x2))
+
+
+def _fold_point(hyp: Hypothesis, points: list[Point], train_cost: np.ndarray) -> Point:
+    if len(hyp.specs) == 1:
+        us = np.array([hyp.unit(p)[0] for p in points])
+        o = np.argsort(us)
+        return hyp.from_unit([_parabola_min(us[o], train_cost[o])])
+    return points[int(np.argmin(train_cost))]
+
+
+# ---------------------------------------------------------------------------------- results
+
+@dataclass
+class HypothesisFit:
+    """One hypothesis fitted to the campaign and scored on held-out events."""
+
+    keys: tuple[str, ...]
+    nuisance_specs: tuple[NuisanceSpec, ...]
+    point: Point
+    k: int
+    intervals: list[tuple[float, float]]
+    rss: float
+    n: int
+    heldout_rms: float
+    heldout_rms_lofo: float
+    heldout_rms_block: float
+    score: float
+    heldout: dict[str, dict[str, float]] = field(default_factory=dict, repr=False)
+    heldout_sim: dict[str, dict[str, float]] = field(default_factory=dict, repr=False)
+    fold_values: dict[str, dict[str, float]] = field(default_factory=dict)
+    n_evals: int = 0
+    n_points: int = 0
+
+    @property
+    def hypothesis(self) -> Hypothesis:
+        """The fitted hypothesis."""
+        return Hypothesis(self.keys, self.nuisance_specs)
+
+    @property
+    def key(self) -> str:
+        """``"none"`` or the candidate keys joined by ``+``."""
+        return self.hypothesis.key
+
+    @property
+    def ids(self) -> list[str]:
+        """The candidate ids, in selection order."""
+        return [CANDIDATES[k].id for k in self.keys]
+
+    @property
+    def id(self) -> str:
+        """``"none"`` or the candidate ids joined by ``+``."""
+        return "+".join(self.ids) or "none"
+
+    @property
+    def aicc_train(self) -> float:
+        """AICc of the training fit."""
+        return aicc(self.n, self.rss / self.n, self.k)
+
+    def _flat(self, point: Sequence[Any]) -> dict[str, Any]:
+        cands, nuis = self.hypothesis.split(tuple(point))
+        flat = {(f"{k}.{n}" if len(cands) > 1 else n): v
+                for k, vals in cands.items() for n, v in vals.items()}
+        return {**flat, **nuis}
+
+    @property
+    def values(self) -> dict[str, float]:
+        """Every fitted value by name (candidate parameters as ``key.param`` when there are
+        several candidates, plain ``param`` for one) and the nuisance constants by name."""
+        return self._flat(self.point)
+
+    @property
+    def interval(self) -> dict[str, tuple[float, float]]:
+        """95 % profile intervals, named as :attr:`values`."""
+        return self._flat(self.intervals) if self.intervals else {}
+
+    def intervals_by_id(self) -> tuple[dict[str, dict[str, tuple[float, float]]],
+                                       dict[str, tuple[float, float]]]:
+        """``({candidate id: {param: interval}}, {nuisance name: interval})``."""
+        if not self.intervals:
+            return {}, {}
+        cands, nuis = self.hypothesis.split(tuple(self.intervals))  # type: ignore[arg-type]
+        return ({CANDIDATES[k].id: v for k, v in cands.items()},  # type: ignore[misc]
+                nuis)  # type: ignore[return-value]
+
+    @property
+    def parameters(self) -> dict[str, dict[str, Any]]:
+        """``{candidate id: public parameters (fixed choices included)}``."""
+        cands, _ = self.hypothesis.split(self.point)
+        return {CANDIDATES[k].id: CANDIDATES[k].public_parameters(v) for k, v in cands.items()}
+
+    @property
+    def nuisance(self) -> dict[str, float]:
+        """Fitted nuisance constants by name."""
+        return self.hypothesis.split(self.point)[1]
+
+    def row(self) -> dict[str, Any]:
+        """A JSON-ready ranking entry."""
+        return {"candidate": self.key, "ids": self.ids, "k": self.k,
+                "parameters": self.parameters, "nuisance": self.nuisance,
+                "interval": {k: list(v) for k, v in self.interval.items()},
+                "heldout_rms": self.heldout_rms, "heldout_rms_lofo": self.heldout_rms_lofo,
+                "heldout_rms_block": self.heldout_rms_block, "score": self.score,
+                "aicc_train": self.aicc_train, "rss_train": self.rss, "n_train": self.n}
+
+
+@dataclass
+class _Heldout:
+    held: dict[str, dict[str, float]] = field(default_factory=dict)
+    held_sim: dict[str, dict[str, float]] = field(default_factory=dict)
+    fold_values: dict[str, dict[str, float]] = field(default_factory=dict)
+    sq_lofo: list[np.ndarray] = field(default_factory=list)
+    sq_block: list[np.ndarray] = field(default_factory=list)
+
+
+def score_folds(costs: HypothesisCosts, folds: Sequence[Fold], points: list[Point],
+                event_rss: np.ndarray) -> _Heldout:
+    """Refit on each fold's training events (choosing among evaluated points) and predict its
+    held-out events."""
+    hyp, eids, ev = costs.hyp, costs.eids, costs.ev
+    names = [p.name for p in hyp.specs]
+    out = _Heldout()
+    for name, train, test in folds:
+        tc = event_rss[:, [eids.index(e) for e in train]].sum(axis=1)
+        pt = _fold_point(hyp, points, tc) if hyp.specs else ()
+        if hyp.specs:
+            out.fold_values[name] = dict(zip(names, pt, strict=True))
+        res = costs.evaluate([pt], test)
+        block = name.startswith("block")
+        for e in test:
+            z = res[(pt, e)].z
+            (out.sq_block if block else out.sq_lofo).append(z ** 2)
+            if not block:
+                out.held[e] = dict(zip(ev.keys[e], map(float, z), strict=True))
+                out.held_sim[e] = dict(zip(ev.keys[e], map(float, res[(pt, e)].values),
+                                           strict=True))
+    return out
+
+
+# ------------------------------------------------------------------------------------ fitting
+
+@dataclass(frozen=True)
+class Stage:
+    """One search stage: a grid over ``grid`` coordinates (None: no grid; at most
+    ``max_per_axis`` points per axis) then a refinement of ``refine`` coordinates with
+    ``maxfev`` evaluations (``starts``: from the best few grid points); skipped unless the
+    best cost so far is below ``if_rss_below`` (a joint refinement only where a candidate
+    already helps). The grid is laid around the best point so far and, with
+    ``nominal_anchor``, also around that point with the nuisance constants at their nominal
+    values (the ones fitted without the right physics absorb part of a real effect)."""
+
+    grid: tuple[int, ...] | None
+    refine: tuple[int, ...]
+    maxfev: int
+    max_per_axis: int | None = None
+    starts: int = 1
+    if_rss_below: float = math.inf
+    nominal_anchor: bool = False
+
+
+def _run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
+                stages: Sequence[Stage]) -> tuple[float, Point]:
+    """The stages from one start: the best (rss, point) reached."""
+    best_rss, best = costs.rss(start), start
+    for st in stages:
+        if best_rss >= st.if_rss_below:
+            continue
+        seeds = [best]
+        if st.grid:
+            anchors = [best]
+            if st.nominal_anchor and hyp.nuisance:
+                nominal = hyp.round([*best[:hyp.n_physics],
+                                     *(float(p.null or 0.0) for p in hyp.nuisance)])
+                anchors += [nominal] if nominal != best else []
+            pts = list(dict.fromkeys(p for a in anchors
+                                     for p in grid_points(hyp, a, st.grid, st.max_per_axis)))
+            total = costs.event_rss(pts).sum(axis=1)
+            order = np.argsort(total)
+            seeds = [pts[i] for i in order[:max(st.starts, 1)]]
+            if total[order[0]] < best_rss:
+                best_rss, best = float(total[order[0]]), pts[order[0]]
+        for s in seeds if st.refine else []:
+            r, p = refine(costs, s, st.refine, st.maxfev)
+            if r < best_rss:
+                best_rss, best = r, p
+    return best_rss, best
+
+
+def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
+                   stages: Sequence[Stage], folds: Sequence[Fold], eids: list[str],
+                   progress: Callable[[str], None] = lambda _m: None,
+                   alternatives: Sequence[Point] = ()) -> HypothesisFit:
+    """Fit ``hyp`` through ``stages`` from ``start`` and from each of ``alternatives``
+    (keeping the best end), then compute its profile interval and held-out score over every point
+    evaluated on all events."""
+    n0 = ev.n_evals
+    ev.base(eids)
+    n = sum(len(ev.keys[e]) for e in eids)
+    costs = HypothesisCosts(ev, hyp, eids)
+    # every start goes through the stages: an alternative that starts worse (a new effect's
+    # own fit with the chosen ones at their nulls) can still end better, where the chosen
+    # ones had absorbed part of the new effect and the stages cannot walk them back
+    best_rss, best = math.inf, start
+    for s0 in dict.fromkeys((start, *alternatives)):
+        r, p = _run_stages(costs, hyp, s0, stages)
+        if r < best_rss:
+            best_rss, best = r, p
+    points = list(costs.points) or [start]
+    event_rss = costs.event_rss(points)
+    specs = hyp.specs
+    intervals = profile_interval(hyp, points, event_rss.sum(axis=1), n) if specs else []
+    h = score_folds(costs, folds, points, event_rss)
+    all_sq = np.concatenate(h.sq_lofo + h.sq_block)
+    mse = float(all_sq.mean())
+    k = len(specs)
+    fit = HypothesisFit(
+        keys=hyp.keys, nuisance_specs=hyp.nuisance, point=best, k=k, intervals=intervals,
+        rss=best_rss, n=n, heldout_rms=math.sqrt(mse),
+        heldout_rms_lofo=math.sqrt(float(np.concatenate(h.sq_lofo).mean())),
+        heldout_rms_block=math.sqrt(float(np.concatenate(h.sq_block).mean())),
+        score=aicc(int(all_sq.size), mse, k), heldout=h.held, heldout_sim=h.held_sim,
+        fold_values=h.fold_values, n_evals=ev.n_evals - n0, n_points=len(points))
+    progress(f"{fit.key}: held-out RMS {fit.heldout_rms:.3f}, score {fit.score:.1f}")
+    return fit
