@@ -11,7 +11,7 @@ templates under ``templates/``, tables by pandas), and the analysis modules only
 
 The three are imported from their modules (``from vadsim.report.validation import
 write_validation_report``), not from here: they import the analysis modules (``vadsim.fit``),
-and :mod:`vadsim.fit.blind` imports :mod:`vadsim.report.blind` at its top.
+and :mod:`vadsim.blind` imports :mod:`vadsim.report.blind` at its top.
 """
 
 from __future__ import annotations
