@@ -184,6 +184,19 @@ def test_two_effects_at_once_are_both_named():
     assert len(js["steps"]) >= 2
 
 
+def test_an_excitation_amplitude_drift_with_flow_is_named():
+    """Physics outside the dissertation's list: the excitation force grows faster with flow
+    than the model's (Fo x (Q/400)^0.8). A hydraulic force, which also grows with flow, is
+    offered as the competitor."""
+    truth = ("excitation_amplitude", {"factor": 1.0, "p": 0.8})
+    camp = synthetic_campaign("7in-cde", FLOWS, change=_truth(truth), seed=16, **SMALL)
+    d = _diagnose(camp, candidates=["excitation_amplitude", "hydraulic_force"])
+    assert d.missing_physics == ["excitation_amplitude"], d.summary()
+    assert d.verdict == "explained"
+    assert d.chosen.values["p"] == pytest.approx(0.8, abs=0.25)
+    assert d.chosen.heldout_rms <= 0.5 * d.baseline.heldout_rms
+
+
 def test_a_mismatch_no_candidate_explains_is_unexplained_not_none(hydraulic_campaign):
     """Only a candidate that cannot produce a hydraulic force is offered: the mismatch stays,
     and the verdict says so instead of "none"."""
