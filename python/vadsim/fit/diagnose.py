@@ -275,11 +275,10 @@ def _candidate_stages(hyp: Hypothesis, start_rss: float) -> list[Stage]:
     coordinate pass follows -- a grid over each chosen candidate's parameters, then over the
     new one's again -- because the chosen ones were fitted while absorbing the new effect.
     Last, where the candidate already helps, all coordinates jointly."""
-    new_cand = hyp.candidates[-1]
-    first = hyp.n_physics - len(new_cand.params)
-    new = tuple(range(first, hyp.n_physics))
+    *chosen, new = hyp.coordinates()
+    first = new[0]
     every = tuple(range(len(hyp.specs)))
-    coarse = None if new_cand.side == "measurement" else MAX_GRID_MODEL_SIDE
+    coarse = None if hyp.candidates[-1].side == "measurement" else MAX_GRID_MODEL_SIDE
     stages = [Stage(grid=new, refine=new, maxfev=8 * len(new), max_per_axis=coarse,
                     nominal_anchor=True, starts=2)]
     if 0 < first and hyp.n_physics <= MAX_JOINT_GRID_PARAMS:
@@ -289,10 +288,7 @@ def _candidate_stages(hyp: Hypothesis, start_rss: float) -> list[Stage]:
         # bound with friction near zero, training cost 13x the truth's)
         stages.append(Stage(grid=tuple(range(hyp.n_physics)), refine=(), maxfev=0,
                             max_per_axis=5))
-    i = 0
-    for cand in hyp.candidates[:-1]:
-        own = tuple(range(i, i + len(cand.params)))
-        i += len(cand.params)
+    for own in chosen:
         stages.append(Stage(grid=own, refine=(), maxfev=0, max_per_axis=5,
                             nominal_anchor=True))
     if first > 0:
@@ -422,9 +418,8 @@ def _screened(ctx: _Context, ev: CampaignEvaluator, current: HypothesisFit, pool
 
 
 def _probe_stage(hyp: Hypothesis) -> Stage:
-    new_cand = hyp.candidates[-1]
-    new = tuple(range(hyp.n_physics - len(new_cand.params), hyp.n_physics))
-    coarse = (PROBE_PER_AXIS_MEASUREMENT if new_cand.side == "measurement" else
+    new = hyp.coordinates()[-1]
+    coarse = (PROBE_PER_AXIS_MEASUREMENT if hyp.candidates[-1].side == "measurement" else
               PROBE_PER_AXIS)
     return Stage(grid=new, refine=(), maxfev=0, max_per_axis=coarse, nominal_anchor=True)
 
@@ -436,12 +431,8 @@ def _densify(ctx: _Context, ev: CampaignEvaluator, fit: HypothesisFit,
     choose among as dense a set of points as the next step's hypotheses do: held-out scores
     compared across steps must not differ by how densely each was searched."""
     hyp = fit.hypothesis
-    stages: list[Stage] = []
-    i = 0
-    for cand in hyp.candidates:
-        own = tuple(range(i, i + len(cand.params)))
-        i += len(cand.params)
-        stages.append(Stage(grid=own, refine=(), maxfev=0, max_per_axis=5))
+    stages = [Stage(grid=own, refine=(), maxfev=0, max_per_axis=5)
+              for own in hyp.coordinates()]
     every = tuple(range(len(hyp.specs)))
     stages.append(Stage(grid=None, refine=every, maxfev=10 * len(every)))
     out = fit_hypothesis(ev, hyp, fit.point, stages, ctx.folds, list(ctx.eids), say)

@@ -69,6 +69,14 @@ class Hypothesis:
         """Coordinates that belong to candidate physics."""
         return sum(len(c.params) for c in self.candidates)
 
+    def coordinates(self) -> list[tuple[int, ...]]:
+        """Each candidate's coordinates (indices into a point), in order."""
+        out, i = [], 0
+        for c in self.candidates:
+            out.append(tuple(range(i, i + len(c.params))))
+            i += len(c.params)
+        return out
+
     def extend(self, key: str) -> Hypothesis:
         """This hypothesis plus one candidate."""
         return Hypothesis((*self.keys, key), self.nuisance)
