@@ -174,6 +174,7 @@ def measure_event(
     keep_signals: bool = False,
     measurement: Measurement | None = None,
     folded: bool | None = None,
+    full_features: bool = True,
 ) -> EventSimulation:
     """Features of a run through each sensor's chain and at full resolution.
 
@@ -193,6 +194,9 @@ def measure_event(
     model_fold_features`: the fine grid through each sensor's low-pass and range, folded at
     the run's exact frequency, for periods 1-4), with a ``phase_sd`` of 0: a fold has no
     sampling phase. The recording's keys select which are compared.
+
+    ``full_features=False`` skips the full-resolution features (``full``): a comparison
+    through the sensor chains does not use them, and they cost a third of the measurement.
     """
     if not (isinstance(phases, int) and phases >= 1):
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
@@ -226,7 +230,8 @@ def measure_event(
             fx = _model_folded(campaign, r, full)
             sensor_feats.update(fx)
             phase_sd.update(dict.fromkeys(fx, 0.0))
-        full_feats.update(event_features(full, fine, r.f_exc_hz))
+        if full_features:
+            full_feats.update(event_features(full, fine, r.f_exc_hz))
     return EventSimulation(
         event_id=event.id, flow_gpm=event.flow_gpm, wob_klbf=float(event.wob_klbf),
         f_exc_hz=r.f_exc_hz, sensor=sensor_feats, full=full_feats, z=r.z,
@@ -463,7 +468,8 @@ class CampaignEvaluator:
             if r is None:
                 return None
             return measure_event(self.campaign, ev, r, phases=self.phases,
-                                 measurement=change.measurement, folded=self.folded)
+                                 measurement=change.measurement, folded=self.folded,
+                                 full_features=False)
         except (SolverError, ValueError):
             return None
 

@@ -94,6 +94,56 @@ def test_folds_leave_each_flow_out_and_hold_out_the_top_flows():
                                       analyse_cycles=20))
 
 
+def test_probe_subset_spans_the_flows_and_keeps_only_folds_it_can_score():
+    from vadsim.fit.diagnose import _probe_subset
+
+    flows = (200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0, 650.0)
+    camp = synthetic_campaign("7in-cde", flows, cycles=40, analyse_cycles=20, noise_g=0.0)
+    folds = make_folds(camp)
+    eids, kept = _probe_subset(camp, folds, 6)
+    chosen = [ev.flow_gpm for ev in camp.events if ev.id in eids]
+    assert len(eids) == 6 and min(chosen) == 200.0 and max(chosen) == 650.0
+    assert max(np.diff(chosen)) <= 2 * (650.0 - 200.0) / 5  # evenly spread, no big gap
+    for _, train, test in kept:
+        assert train and test and set(train + test) <= set(eids)
+    assert any(name.startswith("block") for name, _, _ in kept)
+    assert len(kept) == 6 + 1  # a LOFO fold per chosen flow and the block
+    small = synthetic_campaign("7in-cde", flows[:5], cycles=40, analyse_cycles=20)
+    assert _probe_subset(small, make_folds(small), 6)[0] == tuple(e.id for e in small.events)
+
+
+def test_a_coarse_grid_runs_only_its_best_points_at_full_fidelity():
+    from vadsim.campaigns import campaign_preset
+    from vadsim.compare import CampaignEvaluator
+    from vadsim.fit.hypothesis import COARSE_SEEDS, Hypothesis, Stage, fit_hypothesis
+    from vadsim.fit.nuisance import WOB_SCALE
+    from vadsim.model.settings import RunSettings
+
+    flows = (200.0, 400.0, 600.0, 650.0)
+    camp = synthetic_campaign("7in-cde", flows, change=ModelChange(scales={"wob": 1.1}),
+                              cycles=60, analyse_cycles=40, duration_s=1.5, seed=3)
+    settings = RunSettings(campaign_preset(camp), cycles=60, analyse_cycles=40)
+    coarse_settings = settings.with_changes(cycles=40, analyse_cycles=26)
+    eids = [e.id for e in camp.events]
+    hyp = Hypothesis((), (WOB_SCALE,))
+    stage = Stage(grid=(0,), refine=(), maxfev=0, coarse=True)
+    with CampaignEvaluator(camp, settings, phases=1, workers=1) as ev:
+        ev.base(eids)  # the compared keys, which the coarse engine is given (as a diagnosis')
+        rough = CampaignEvaluator(camp, coarse_settings, phases=1, workers=1,
+                                  targets=ev.targets, keys=ev.keys)
+        fit = fit_hypothesis(ev, hyp, hyp.null_point(), [stage], make_folds(camp), eids,
+                             coarse=(rough, eids[:2]))
+        n_grid = WOB_SCALE.grid
+        # the coarse engine saw the whole grid on its two events; the full engine the
+        # start and the best few grid points on every event (plus the base runs)
+        assert rough.n_evals == n_grid * 2
+        assert fit.n_points <= 1 + COARSE_SEEDS
+        assert fit.n_evals == rough.n_evals + (ev.n_evals - len(eids))
+        start_rss = ev.rss(("wob", hyp.null_point()), hyp.change(hyp.null_point()), eids)
+        assert fit.rss <= start_rss
+        rough.close()
+
+
 HYDRAULIC = ("hydraulic_force[anvil]", {"f_ref": 64.0, "n": 2.0})
 FRICTION = ("anvil_friction", {"force": 100.0})
 TRIED = ["hydraulic_force", "anvil_friction", "contact_law"]

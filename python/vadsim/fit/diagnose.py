@@ -36,6 +36,7 @@ physics outside the list:
 
 from __future__ import annotations
 
+import contextlib
 import math
 import multiprocessing as mp
 import os
@@ -87,6 +88,27 @@ resonance's cost minima are narrow)."""
 MAX_GRID_MODEL_SIDE = 7
 """Grid points per axis for candidates that run the model again (measurement-side ones,
 which only re-measure, keep their finer grids: a resonance's cost minima are narrow)."""
+
+PROBE_EVENTS = 6
+"""Events a screening probe evaluates: spread evenly over the flows, the lowest and the
+highest included (every event when the campaign has no more). A probe only ranks the
+candidates for the full fits; measured on the 10-event benchmark, ranking on 6 keeps the
+order of the leaders."""
+
+PROBE_CYCLE_FRACTION = 2.0 / 3.0
+"""A probe's run length and analysed window as a fraction of the diagnosis' (300/200 cycles
+-> 200/133): for the same reason, at about half the cost of a run and its measurement."""
+
+PROBE_MIN_GAIN = 0.03
+"""A probe must cut the training cost by this fraction of its start's to earn a full fit
+(one that does not cannot pass the selection's 30 % cut in held-out error)."""
+
+SOLO_FULL = 2
+"""From the second step on, the candidates that ranked best alone in the first step are
+fitted fully whatever their probe: a second effect that the first one absorbed does not
+show in a probe on top of it, where the first is held at its absorbing values (measured:
+hydraulic force + anvil friction, whose friction probe on top of the hydraulic force ranked
+outside the top 4)."""
 
 MAX_JOINT_GRID_PARAMS = 3
 """On top of chosen effects, a joint grid (5 points per axis) over every candidate parameter
@@ -185,10 +207,11 @@ class Diagnosis:
         for i, step in enumerate(self.steps):
             lines.append(f"step {i + 1}: {'candidate':34s} {'k':>2s} "
                          f"{'held-out RMS (LOFO/block)':>26s} {'score':>9s}")
-            for f in step[:8]:
+            for f in step[:8]:  # a probe's RMS is on a subset of events: no score
                 lines.append(f"        {f.key:34s} {f.k:2d} {f.heldout_rms:6.3f} "
                              f"({f.heldout_rms_lofo:.2f}/{f.heldout_rms_block:.2f}) "
-                             f"{f.score:9.1f}  {_params_text(f)}")
+                             + (f"{'probe':>9s}" if f.probe else f"{f.score:9.1f}")
+                             + f"  {_params_text(f)}")
         lines.append(self.verdict_text())
         if self.prediction:
             p = self.prediction
@@ -261,38 +284,58 @@ def make_folds(campaign: Campaign, block_fraction: float = 0.3
 
 # ------------------------------------------------------------------------------------ fitting
 
-def _base_stages(hyp: Hypothesis) -> list[Stage]:
-    """The calibrated base model: a grid over every nuisance constant, then Nelder-Mead from
-    the three best grid points (theta0's cost has several minima)."""
+def _calibrate_base(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                    hyp: Hypothesis, say: Callable[[str], None]) -> HypothesisFit:
+    """The calibrated base model: a grid over every nuisance constant (on the coarse engine:
+    a subset of events, shorter runs), then Nelder-Mead at the diagnosis' fidelity from the
+    three best grid points (theta0's cost has several minima)."""
     every = tuple(range(len(hyp.specs)))
-    return [Stage(grid=every, refine=every, maxfev=10 * len(every), starts=3)] if every else []
+    stages = ([Stage(grid=every, refine=every, maxfev=10 * len(every), starts=3, coarse=True)]
+              if every else [])
+    c0 = coarse_ev.n_evals
+    fit = fit_hypothesis(ev, hyp, hyp.null_point(), stages, ctx.folds, list(ctx.eids), say,
+                         coarse=(coarse_ev, list(ctx.probe_eids)))
+    ev.n_evals += coarse_ev.n_evals - c0
+    return fit
 
 
-def _candidate_stages(hyp: Hypothesis, start_rss: float) -> list[Stage]:
+def _model_side(hyp: Hypothesis, keys: Sequence[str] | None = None) -> bool:
+    """Whether any candidate of ``hyp`` (or of ``keys``) runs the model again."""
+    return any(CANDIDATES[k].side == "model" for k in (hyp.keys if keys is None else keys))
+
+
+def _candidate_stages(hyp: Hypothesis, start_rss: float, probed: bool = False
+                      ) -> list[Stage]:
     """The last candidate of ``hyp``: a grid over its parameters (the others held, at the
     current nuisance values and at the nominal ones: those fitted without the right physics
     absorb part of a real effect) and a local refinement. On top of chosen effects, a
     coordinate pass follows -- a grid over each chosen candidate's parameters, then over the
     new one's again -- because the chosen ones were fitted while absorbing the new effect.
-    Last, where the candidate already helps, all coordinates jointly."""
+    Last, where the candidate already helps, all coordinates jointly.
+
+    ``probed``: the start is the best point of the candidate's screening probe (a grid on
+    a subset of events, around the current and the nominal nuisance values), so the first
+    grid is laid around that point only."""
     *chosen, new = hyp.coordinates()
     first = new[0]
     every = tuple(range(len(hyp.specs)))
-    coarse = None if hyp.candidates[-1].side == "measurement" else MAX_GRID_MODEL_SIDE
-    stages = [Stage(grid=new, refine=new, maxfev=8 * len(new), max_per_axis=coarse,
-                    nominal_anchor=True, starts=2)]
+    new_model = _model_side(hyp, hyp.keys[-1:])
+    stages = [Stage(grid=new, refine=new, maxfev=8 * len(new),
+                    max_per_axis=MAX_GRID_MODEL_SIDE if new_model else None,
+                    nominal_anchor=not probed, starts=2, coarse=new_model)]
     if 0 < first and hyp.n_physics <= MAX_JOINT_GRID_PARAMS:
         # a joint grid over every candidate parameter: the chosen ones were fitted while
         # absorbing the new effect, and walking them back one coordinate at a time gets
         # stuck in the valley that absorption makes (measured: hydraulic force at its
         # bound with friction near zero, training cost 13x the truth's)
         stages.append(Stage(grid=tuple(range(hyp.n_physics)), refine=(), maxfev=0,
-                            max_per_axis=5))
-    for own in chosen:
+                            max_per_axis=5, coarse=_model_side(hyp)))
+    for own, key in zip(chosen, hyp.keys, strict=False):
         stages.append(Stage(grid=own, refine=(), maxfev=0, max_per_axis=5,
-                            nominal_anchor=True))
+                            nominal_anchor=True, coarse=_model_side(hyp, [key])))
     if first > 0:
-        stages.append(Stage(grid=new, refine=(), maxfev=0, max_per_axis=5))
+        stages.append(Stage(grid=new, refine=(), maxfev=0, max_per_axis=5,
+                            coarse=new_model))
     if len(every) > len(new):
         stages.append(Stage(grid=None, refine=every, maxfev=10 * len(every),
                             if_rss_below=JOINT_IF_TRAINING_BELOW * start_rss))
@@ -307,53 +350,109 @@ class _Job:
     start: Point
     stages: tuple[Stage, ...]
     alternatives: tuple[Point, ...] = ()
+    probe: bool = False
 
 
-def _job(current: HypothesisFit, key: str, solo: HypothesisFit | None = None) -> _Job:
+def _job(current: HypothesisFit, key: str, solo: HypothesisFit | None = None,
+         probe: HypothesisFit | None = None) -> _Job:
     """``current`` plus candidate ``key``, started at ``current``'s values and the new
-    candidate's null (or the middle of its box); or, if better, at the new candidate's own
-    fit ``solo`` with the chosen ones at their nulls (the chosen ones may have absorbed the
-    new effect: the other order of adding them)."""
+    candidate's null (or the middle of its box), or at the best point of its screening
+    ``probe``; or, if better, at the new candidate's own fit ``solo`` with the chosen ones at
+    their nulls (the chosen ones may have absorbed the new effect: the other order of adding
+    them)."""
     hyp = current.hypothesis.extend(key)
     cands, nuis = current.hypothesis.split(current.point)
     new = Hypothesis((key,)).null_point()
     start = hyp.round([v for c in cands.values() for v in c.values()] + list(new)
                       + list(nuis.values()))
+    if probe is not None:
+        start = probe.point
     alternatives: tuple[Point, ...] = ()
-    if solo is not None and current.keys:
+    # with a joint grid over every candidate parameter, the other order (the chosen ones at
+    # their nulls, the new one at its own fit) is on that grid already
+    if solo is not None and current.keys and hyp.n_physics > MAX_JOINT_GRID_PARAMS:
         own, solo_nuis = solo.hypothesis.split(solo.point)
         chosen_null = Hypothesis(current.keys).null_point()
         alternatives = (hyp.round([*chosen_null, *own[key].values(), *solo_nuis.values()]),)
-    return _Job(hyp, start, tuple(_candidate_stages(hyp, current.rss)), alternatives)
+    return _Job(hyp, start, tuple(_candidate_stages(hyp, current.rss, probe is not None)),
+                alternatives)
 
 
 @dataclass(frozen=True)
 class _Context:
-    """What a worker needs to rebuild the comparison engine."""
+    """What a worker needs to rebuild the comparison engine: the recorded features and
+    compared keys come along, so that a worker neither re-reads the recordings nor re-runs
+    the base model to learn them."""
 
     campaign: Campaign
     settings: RunSettings
     phases: int
     folds: tuple[Fold, ...]
     eids: tuple[str, ...]
+    targets: Mapping[str, Mapping[str, Feature]]
+    keys: Mapping[str, Sequence[str]]
+    probe_eids: tuple[str, ...]
+    probe_folds: tuple[Fold, ...]
+
+    def evaluator(self, probe: bool, workers: int) -> CampaignEvaluator:
+        """A comparison engine at the diagnosis' fidelity or at a probe's."""
+        settings = self.settings
+        if probe:
+            settings = settings.with_changes(
+                cycles=settings.cycles * PROBE_CYCLE_FRACTION,
+                analyse_cycles=settings.analyse_cycles * PROBE_CYCLE_FRACTION)
+        return CampaignEvaluator(self.campaign, settings, targets=self.targets,
+                                 keys=self.keys, phases=self.phases, workers=workers)
+
+
+def _probe_subset(camp: Campaign, folds: Sequence[Fold], n: int
+                  ) -> tuple[tuple[str, ...], tuple[Fold, ...]]:
+    """``n`` events spread evenly over the flows (all if there are no more) and the folds
+    restricted to them (a fold left without training or held-out events is dropped)."""
+    by_flow = sorted(camp.events, key=lambda e: e.flow_gpm)
+    if len(by_flow) <= n:
+        return tuple(e.id for e in camp.events), tuple(folds)
+    pick = sorted({int(round(i)) for i in np.linspace(0, len(by_flow) - 1, n)})
+    chosen = {by_flow[i].id for i in pick}
+    eids = tuple(e.id for e in camp.events if e.id in chosen)
+    kept = []
+    for name, train, test in folds:
+        tr, te = [e for e in train if e in chosen], [e for e in test if e in chosen]
+        if tr and te:
+            kept.append((name, tr, te))
+    return eids, tuple(kept)
+
+
+def _run_job(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator, job: _Job,
+             say: Callable[[str], None] = lambda _m: None) -> HypothesisFit:
+    """One job: a probe on the coarse engine alone; a full fit on ``ev`` with its grids
+    on the coarse engine."""
+    if job.probe:
+        fit = fit_hypothesis(coarse_ev, job.hyp, job.start, job.stages, ctx.probe_folds,
+                             list(ctx.probe_eids), say, job.alternatives)
+    else:
+        fit = fit_hypothesis(ev, job.hyp, job.start, job.stages, ctx.folds, list(ctx.eids),
+                             say, job.alternatives, coarse=(coarse_ev, list(ctx.probe_eids)))
+    fit.probe = job.probe
+    return fit
 
 
 def _fit_task(ctx: _Context, job: _Job) -> HypothesisFit:
     """One hypothesis' fit in its own process (the feature code holds the GIL)."""
-    with CampaignEvaluator(ctx.campaign, ctx.settings, phases=ctx.phases, workers=1) as ev:
-        return fit_hypothesis(ev, job.hyp, job.start, job.stages, ctx.folds, list(ctx.eids),
-                              alternatives=job.alternatives)
+    with ctx.evaluator(False, 1) as ev, ctx.evaluator(True, 1) as coarse_ev:
+        return _run_job(ctx, ev, coarse_ev, job)
 
 
 def _fit_all(ctx: _Context, jobs: list[_Job], ev: CampaignEvaluator,
-             say: Callable[[str], None], tick: Callable[[], None] = lambda: None
-             ) -> list[HypothesisFit]:
+             coarse_ev: CampaignEvaluator, say: Callable[[str], None],
+             tick: Callable[[], None] = lambda: None) -> list[HypothesisFit]:
     """Fit every job: in worker processes when there are several workers."""
     if ev.workers <= 1 or len(jobs) <= 1:
         fits = []
         for j in jobs:
-            fits.append(fit_hypothesis(ev, j.hyp, j.start, j.stages, ctx.folds,
-                                       list(ctx.eids), say, j.alternatives))
+            c0 = coarse_ev.n_evals
+            fits.append(_run_job(ctx, ev, coarse_ev, j, say))
+            ev.n_evals += coarse_ev.n_evals - c0
             tick()
         return fits
     # model-side candidates first: they take longest
@@ -397,19 +496,28 @@ class _Selection:
     chosen: HypothesisFit | None
 
 
-def _screened(ctx: _Context, ev: CampaignEvaluator, current: HypothesisFit, pool: list[str],
+def _screened(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+              current: HypothesisFit, pool: list[str],
               top: int, say: Callable[[str], None], tick: Callable[[], None],
               solo: Mapping[str, HypothesisFit]) -> list[HypothesisFit]:
     """Every candidate on a coarse probe (a grid of at most ``PROBE_PER_AXIS`` points per
-    axis, at the calibrated and at the nominal nuisance values), then the full fit of the
-    ``top`` whose probe cut the training cost most; the others keep their probe's fit and
-    held-out score."""
+    axis, at the calibrated and at the nominal nuisance values, on the coarse engine), then
+    the full fit of the ``top`` whose probe cut the training cost most (by at least
+    :data:`PROBE_MIN_GAIN`) and of the :data:`SOLO_FULL` best first-step candidates
+    (``solo``, best first); the others keep their probe's fit."""
     probes = [_Job(current.hypothesis.extend(k), _job(current, k).start,
-                   (_probe_stage(current.hypothesis.extend(k)),)) for k in pool]
-    fits = _fit_all(ctx, probes, ev, say)
-    best = sorted(range(len(pool)), key=lambda i: fits[i].rss)[:top]
+                   (_probe_stage(current.hypothesis.extend(k)),), probe=True) for k in pool]
+    fits = _fit_all(ctx, probes, ev, coarse_ev, say)
+    ranked = sorted(range(len(pool)), key=lambda i: fits[i].rss)
+    best = [i for i in ranked if fits[i].rss <= (1 - PROBE_MIN_GAIN) * fits[i].rss_start][:top]
+    chosen_ids = set(current.ids)
+    for k in [k for k in solo if CANDIDATES[k].id not in chosen_ids][:SOLO_FULL]:
+        if k in pool and pool.index(k) not in best:
+            best.append(pool.index(k))
+    best = best or ranked[:1]
     say(f"screened {len(pool)} candidates; fitting {', '.join(pool[i] for i in best)} fully")
-    full = _fit_all(ctx, [_job(current, pool[i], solo.get(pool[i])) for i in best], ev, say)
+    full = _fit_all(ctx, [_job(current, pool[i], solo.get(pool[i]), fits[i]) for i in best],
+                    ev, coarse_ev, say)
     for i, f in zip(best, full, strict=True):
         fits[i] = f
     for _ in pool:
@@ -424,22 +532,28 @@ def _probe_stage(hyp: Hypothesis) -> Stage:
     return Stage(grid=new, refine=(), maxfev=0, max_per_axis=coarse, nominal_anchor=True)
 
 
-def _densify(ctx: _Context, ev: CampaignEvaluator, fit: HypothesisFit,
+def _densify(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+             fit: HypothesisFit,
              say: Callable[[str], None]) -> HypothesisFit:
     """The chosen model refitted around its optimum with the stages a next step uses (a
     grid over each candidate's parameters, then all coordinates jointly), so that its folds
     choose among as dense a set of points as the next step's hypotheses do: held-out scores
     compared across steps must not differ by how densely each was searched."""
     hyp = fit.hypothesis
-    stages = [Stage(grid=own, refine=(), maxfev=0, max_per_axis=5)
-              for own in hyp.coordinates()]
+    stages = [Stage(grid=own, refine=(), maxfev=0, max_per_axis=5,
+                    coarse=_model_side(hyp, [key]))
+              for own, key in zip(hyp.coordinates(), hyp.keys, strict=True)]
     every = tuple(range(len(hyp.specs)))
     stages.append(Stage(grid=None, refine=every, maxfev=10 * len(every)))
-    out = fit_hypothesis(ev, hyp, fit.point, stages, ctx.folds, list(ctx.eids), say)
+    c0 = coarse_ev.n_evals
+    out = fit_hypothesis(ev, hyp, fit.point, stages, ctx.folds, list(ctx.eids), say,
+                         coarse=(coarse_ev, list(ctx.probe_eids)))
+    ev.n_evals += coarse_ev.n_evals - c0
     return out if out.rss <= fit.rss else fit
 
 
-def _forward_selection(ctx: _Context, ev: CampaignEvaluator, base: HypothesisFit,
+def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                       base: HypothesisFit,
                        keys: list[str], opts: Mapping[str, Any], say: Callable[[str], None],
                        tick: Callable[[], None]) -> _Selection:
     """Add candidates one at a time while the next one passes the thresholds."""
@@ -450,16 +564,19 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, base: HypothesisFit
             break  # nothing left to try, or the current model is within the noise
         say(f"step {step + 1}: fitting {len(pool)} candidate(s) on top of {current.key}")
         if len(pool) > int(opts["screen_top"]):
-            fits = _screened(ctx, ev, current, pool, int(opts["screen_top"]), say, tick, solo)
+            fits = _screened(ctx, ev, coarse_ev, current, pool, int(opts["screen_top"]), say,
+                             tick, solo)
         else:
-            fits = _fit_all(ctx, [_job(current, k, solo.get(k)) for k in pool], ev, say, tick)
-        fits = sorted(fits, key=lambda f: (_vanishes(f), f.score))
+            fits = _fit_all(ctx, [_job(current, k, solo.get(k)) for k in pool], ev, coarse_ev,
+                            say, tick)
+        # a probe-only fit (a subset of events, shorter runs) is ranked but never chosen
+        fits = sorted(fits, key=lambda f: (f.probe, _vanishes(f), f.score))
         if step == 0:
             solo = {f.keys[-1]: f for f in fits}
         steps.append(fits)
         if not _passes(fits[0], current, opts["min_delta"], opts["min_reduction"]):
             break
-        current = _densify(ctx, ev, fits[0], say)
+        current = _densify(ctx, ev, coarse_ev, fits[0], say)
         chosen_ids = set(current.ids)
         pool = [f.keys[-1] for f in fits[1:] if CANDIDATES[f.keys[-1]].id not in chosen_ids]
     return _Selection(steps, current if current is not base else None)
@@ -564,23 +681,26 @@ def diagnose(
                                   for s in (nuisance or ())), settings)
     folds = make_folds(camp, block_fraction)
     eids = [e.id for e in camp.events]
-    ctx = _Context(camp, settings, phases, tuple(folds), tuple(eids))
     opts = dict(min_delta=min_delta, min_reduction=min_reduction, max_effects=max_effects,
                 screen_top=screen_top, max_rms=max_rms,
                 noise_rms=noise_rms)
     with CampaignEvaluator(camp, settings, phases=phases,
                            workers=workers or os.cpu_count() or 1) as ev, \
-            bar(progress, len(keys) + 2, f"diagnose {camp.name}", "fit") as b:
+            bar(progress, len(keys) + 2, f"diagnose {camp.name}", "fit") as b, \
+            contextlib.ExitStack() as stack:
         plain = fit_hypothesis(ev, Hypothesis(), (), [], folds, eids, say)
+        probe_eids, probe_folds = _probe_subset(camp, folds, PROBE_EVENTS)
+        ctx = _Context(camp, settings, phases, tuple(folds), tuple(eids), ev.targets,
+                       {e: tuple(k) for e, k in ev.keys.items()}, probe_eids, probe_folds)
+        coarse_ev = stack.enter_context(ctx.evaluator(True, ev.workers))
         hyp0 = Hypothesis((), nuis)
-        base = fit_hypothesis(ev, hyp0, hyp0.null_point(), _base_stages(hyp0), folds, eids,
-                              say)
+        base = _calibrate_base(ctx, ev, coarse_ev, hyp0, say)
         b.update(2)
         base_eval = HypothesisCosts(ev, hyp0, eids).evaluate([base.point])
         located, located_events = _locate(camp, ev, {e: base_eval[(base.point, e)]
                                                       for e in eids})
         say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
-        sel = _forward_selection(ctx, ev, base, keys, opts, say, b.update)
+        sel = _forward_selection(ctx, ev, coarse_ev, base, keys, opts, say, b.update)
         final = sel.chosen or base
         flows = {e.id: e.flow_gpm for e in camp.events}
         baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),

@@ -41,6 +41,12 @@ __all__ = ["Fold", "Hypothesis", "HypothesisCosts", "HypothesisFit", "Point", "a
 Point = tuple[float, ...]
 Fold = tuple[str, list[str], list[str]]
 
+TOP_POINTS = 3
+"""How many of the best points a fit keeps as starts for a finer fit."""
+
+COARSE_SEEDS = 3
+"""How many of a coarse grid's best points are evaluated again at full fidelity."""
+
 
 @dataclass(frozen=True)
 class Hypothesis:
@@ -294,6 +300,13 @@ class HypothesisFit:
     fold_values: dict[str, dict[str, float]] = field(default_factory=dict)
     n_evals: int = 0
     n_points: int = 0
+    rss_start: float = math.nan
+    """The training cost at the start point (what the fit improved on)."""
+    top_points: tuple[Point, ...] = ()
+    """The few points with the lowest training cost (starts for a finer fit)."""
+    probe: bool = False
+    """Only probed (a coarse grid on a subset of events, shorter runs) in a screening step:
+    its held-out score is the probe's, on that subset, and it is never chosen."""
 
     @property
     def hypothesis(self) -> Hypothesis:
@@ -364,7 +377,8 @@ class HypothesisFit:
                 "interval": {k: list(v) for k, v in self.interval.items()},
                 "heldout_rms": self.heldout_rms, "heldout_rms_lofo": self.heldout_rms_lofo,
                 "heldout_rms_block": self.heldout_rms_block, "score": self.score,
-                "aicc_train": self.aicc_train, "rss_train": self.rss, "n_train": self.n}
+                "aicc_train": self.aicc_train, "rss_train": self.rss, "n_train": self.n,
+                "probe_only": self.probe}
 
 
 @dataclass
@@ -410,7 +424,10 @@ class Stage:
     best cost so far is below ``if_rss_below`` (a joint refinement only where a candidate
     already helps). The grid is laid around the best point so far and, with
     ``nominal_anchor``, also around that point with the nuisance constants at their nominal
-    values (the ones fitted without the right physics absorb part of a real effect)."""
+    values (the ones fitted without the right physics absorb part of a real effect).
+    ``coarse``: the grid is evaluated on the coarse engine where the fit has one (a subset of
+    events, shorter runs) and only its :data:`COARSE_SEEDS` best points at full fidelity --
+    a grid only has to find the basin."""
 
     grid: tuple[int, ...] | None
     refine: tuple[int, ...]
@@ -419,10 +436,12 @@ class Stage:
     starts: int = 1
     if_rss_below: float = math.inf
     nominal_anchor: bool = False
+    coarse: bool = False
 
 
 def _run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
-                stages: Sequence[Stage]) -> tuple[float, Point]:
+                stages: Sequence[Stage], coarse: HypothesisCosts | None = None
+                ) -> tuple[float, Point]:
     """The stages from one start: the best (rss, point) reached."""
     best_rss, best = costs.rss(start), start
     for st in stages:
@@ -437,6 +456,9 @@ def _run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
                 anchors += [nominal] if nominal != best else []
             pts = list(dict.fromkeys(p for a in anchors
                                      for p in grid_points(hyp, a, st.grid, st.max_per_axis)))
+            if st.coarse and coarse is not None:
+                rough = coarse.event_rss(pts).sum(axis=1)
+                pts = [pts[i] for i in np.argsort(rough)[:max(st.starts, COARSE_SEEDS)]]
             total = costs.event_rss(pts).sum(axis=1)
             order = np.argsort(total)
             seeds = [pts[i] for i in order[:max(st.starts, 1)]]
@@ -452,20 +474,25 @@ def _run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
 def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
                    stages: Sequence[Stage], folds: Sequence[Fold], eids: list[str],
                    progress: Callable[[str], None] = lambda _m: None,
-                   alternatives: Sequence[Point] = ()) -> HypothesisFit:
+                   alternatives: Sequence[Point] = (),
+                   coarse: tuple[CampaignEvaluator, list[str]] | None = None
+                   ) -> HypothesisFit:
     """Fit ``hyp`` through ``stages`` from ``start`` and from each of ``alternatives``
     (keeping the best end), then compute its profile interval and held-out score over every point
-    evaluated on all events."""
-    n0 = ev.n_evals
-    ev.base(eids)
+    evaluated on all events (at full fidelity: ``coarse``, a cheaper engine and its events,
+    only evaluates the grids of stages marked ``coarse``)."""
+    n0, c0 = ev.n_evals, (coarse[0].n_evals if coarse is not None else 0)
+    if any(e not in ev.keys for e in eids):
+        ev.base(eids)  # the base model's run defines the compared keys
     n = sum(len(ev.keys[e]) for e in eids)
     costs = HypothesisCosts(ev, hyp, eids)
+    rough = HypothesisCosts(coarse[0], hyp, coarse[1]) if coarse is not None else None
     # every start goes through the stages: an alternative that starts worse (a new effect's
     # own fit with the chosen ones at their nulls) can still end better, where the chosen
     # ones had absorbed part of the new effect and the stages cannot walk them back
     best_rss, best = math.inf, start
     for s0 in dict.fromkeys((start, *alternatives)):
-        r, p = _run_stages(costs, hyp, s0, stages)
+        r, p = _run_stages(costs, hyp, s0, stages, rough)
         if r < best_rss:
             best_rss, best = r, p
     points = list(costs.points) or [start]
@@ -482,6 +509,9 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
         heldout_rms_lofo=math.sqrt(float(np.concatenate(h.sq_lofo).mean())),
         heldout_rms_block=math.sqrt(float(np.concatenate(h.sq_block).mean())),
         score=aicc(int(all_sq.size), mse, k), heldout=h.held, heldout_sim=h.held_sim,
-        fold_values=h.fold_values, n_evals=ev.n_evals - n0, n_points=len(points))
+        fold_values=h.fold_values, n_points=len(points),
+        n_evals=ev.n_evals - n0 + (coarse[0].n_evals - c0 if coarse is not None else 0),
+        rss_start=costs.rss(start),
+        top_points=tuple(points[i] for i in np.argsort(event_rss.sum(axis=1))[:TOP_POINTS]))
     progress(f"{fit.key}: held-out RMS {fit.heldout_rms:.3f}, score {fit.score:.1f}")
     return fit

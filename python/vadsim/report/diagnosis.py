@@ -56,10 +56,12 @@ def _ranking(diag: Diagnosis) -> list[dict[str, Any]]:
     current = diag.baseline
     for i, step in enumerate(diag.steps):
         rows = [{"hypothesis": f.key, "k": str(f.k), "values": _parameters(f.values) or "-",
-                 "held-out RMS (LOFO / block)": f"{f.heldout_rms:.3f} "
-                                                f"({f.heldout_rms_lofo:.3f} / "
-                                                f"{f.heldout_rms_block:.3f})",
-                 "score": f"{f.score:.1f}", "delta": f"{f.score - current.score:+.1f}"}
+                 "held-out RMS (LOFO / block)": ("probe only " if f.probe else "")
+                 + f"{f.heldout_rms:.3f} ({f.heldout_rms_lofo:.3f} / "
+                   f"{f.heldout_rms_block:.3f})",
+                 # a probe's score is over a subset of events: not comparable
+                 "score": "-" if f.probe else f"{f.score:.1f}",
+                 "delta": "-" if f.probe else f"{f.score - current.score:+.1f}"}
                 for f in ([current] + step if i == 0 else step)]
         tables.append({"step": i + 1, "extends": current.key,
                        "table": pd.DataFrame(rows).set_index("hypothesis")})
