@@ -327,9 +327,12 @@ def _candidate_stages(hyp: Hypothesis, start_rss: float, probed: bool = False
         # a joint grid over every candidate parameter: the chosen ones were fitted while
         # absorbing the new effect, and walking them back one coordinate at a time gets
         # stuck in the valley that absorption makes (measured: hydraulic force at its
-        # bound with friction near zero, training cost 13x the truth's)
+        # bound with friction near zero, training cost 13x the truth's). Around the nominal
+        # nuisance values too: they absorbed the effects as well (measured on the 10-event
+        # pair benchmark: without, the friction fit on top of the hydraulic force ended at
+        # held-out RMS 2.73; with, at 0.31, values within 5 % of the truth)
         stages.append(Stage(grid=tuple(range(hyp.n_physics)), refine=(), maxfev=0,
-                            max_per_axis=5, coarse=_model_side(hyp)))
+                            max_per_axis=5, coarse=_model_side(hyp), nominal_anchor=True))
     for own, key in zip(chosen, hyp.keys, strict=False):
         stages.append(Stage(grid=own, refine=(), maxfev=0, max_per_axis=5,
                             nominal_anchor=True, coarse=_model_side(hyp, [key])))
