@@ -18,7 +18,8 @@ from vadsim.candidates import (
     mount_resonance,
 )
 from vadsim.cli import main
-from vadsim.diagnose import diagnose, make_folds, predict
+from vadsim.diagnose import diagnose, make_folds, none_model, predict
+from vadsim.fit.hypothesis import HypothesisFit
 from vadsim.model.change import ModelChange
 from vadsim.recordings import save_campaign
 from vadsim.synthetic import synthetic_campaign
@@ -161,6 +162,31 @@ def _diagnose(camp, **kw):
                     phases=2, progress=False, **kw)
 
 
+def _scored(heldout_rms: float, k: int, n_heldout: int = 100) -> HypothesisFit:
+    from vadsim.fit.hypothesis import aicc
+
+    return HypothesisFit(keys=(), nuisance_specs=(), point=(), k=k, intervals=[], rss=1.0,
+                         n=n_heldout, heldout_rms=heldout_rms, heldout_rms_lofo=heldout_rms,
+                         heldout_rms_block=heldout_rms,
+                         score=aicc(n_heldout, heldout_rms ** 2, k))
+
+
+def test_none_is_the_nominal_base_model_where_calibration_overfits_the_folds():
+    """Refitting WOB and theta0 on few training events can move a held-out event across a
+    regime boundary; the nominal model, with nothing to refit, then predicts better and is
+    what an effect has to beat."""
+    calibrated, nominal = _scored(1.56, k=2), _scored(0.22, k=0)
+    assert none_model(calibrated, nominal) is nominal
+    # where calibration helps, the calibrated model stands, even if only a little better
+    # than the penalty for its two constants
+    calibrated, nominal = _scored(0.30, k=2), _scored(0.32, k=0)
+    assert calibrated.score < nominal.score
+    assert none_model(calibrated, nominal) is calibrated
+    # a tie keeps the calibrated one (its nuisance values are reported)
+    first, second = _scored(0.22, k=0), _scored(0.22, k=0)
+    assert none_model(first, second) is first
+
+
 @pytest.fixture(scope="module")
 def hydraulic_campaign():
     return synthetic_campaign("7in-cde", FLOWS, change=_truth(HYDRAULIC), seed=11, **SMALL)
@@ -208,7 +234,10 @@ def test_campaign_written_by_the_base_model_gives_none():
     assert d.located == []
     js = d.as_json()
     assert js["heldout_error_after"] == js["heldout_error_before"]
+    assert js["heldout_error_before"] == min(d.baseline, d.uncalibrated,
+                                             key=lambda f: f.score).heldout_rms
     assert js["missing_physics"] == ["none"]
+    assert set(js["nuisance"]) == {"wob_scale", "theta0"}  # whichever model "none" is
 
 
 def test_null_campaign_with_wob_10_percent_off_gives_none():

@@ -649,7 +649,7 @@ def fake_diagnosis() -> SimpleNamespace:
     sim = {e: {k: 12.0 + j for j, k in enumerate(CAMPAIGN_KEYS)} for e in eids}
     return SimpleNamespace(
         campaign=fake_campaign(), recorded=fake_recorded(),
-        baseline=SimpleNamespace(key="none", heldout=heldout, heldout_sim=sim),
+        none_fit=SimpleNamespace(key="none", heldout=heldout, heldout_sim=sim),
         chosen=SimpleNamespace(key="hydraulic_force[anvil]", heldout_sim=sim),
         settings={"cycles": 160.0, "analyse_cycles": 100.0})
 

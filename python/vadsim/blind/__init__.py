@@ -162,7 +162,7 @@ def _concealment(diag: Any) -> dict[str, Any] | None:
     untouched (None if the diagnosis does not expose them)."""
     try:
         rms = {e: float(np.sqrt(np.mean(np.square(list(z.values())))))
-               for e, z in diag.baseline.heldout.items() if z}
+               for e, z in diag.none_fit.heldout.items() if z}
     except (AttributeError, TypeError):
         return None
     vals = np.array(list(rms.values()))

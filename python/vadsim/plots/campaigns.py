@@ -241,7 +241,7 @@ def _largest_errors(diag: Diagnosis, n_features: int) -> list[str]:
     """Features with the largest held-out error of the base model, largest first."""
     err: dict[str, float] = {}
     for e in diag.campaign.events:
-        for k, z in diag.baseline.heldout.get(e.id, {}).items():
+        for k, z in diag.none_fit.heldout.get(e.id, {}).items():
             err[k] = err.get(k, 0.0) + z * z
     return sorted(err, key=lambda k: -err[k])[:n_features]
 
@@ -264,7 +264,7 @@ def heldout_features_figure(diag: Diagnosis, n_features: int = 6) -> Figure | No
     after = diag.chosen
     for ax, key in zip(axes, top, strict=False):
         rec = [diag.recorded[e].get(key, _NO_FEATURE) for e in eids]
-        before = np.array([diag.baseline.heldout_sim.get(e, {}).get(key, math.nan)
+        before = np.array([diag.none_fit.heldout_sim.get(e, {}).get(key, math.nan)
                            for e in eids])
         ax.errorbar(flows[order], np.array([f.value for f in rec])[order],
                     yerr=np.array([f.spread for f in rec])[order], fmt="s", color="black",
@@ -290,7 +290,7 @@ def mismatch_base_figure(diag: Diagnosis) -> Figure:
     """Heat map of the base model's held-out standardised residuals, events (with their flow)
     as rows, features in words as columns."""
     eids = [e.id for e in diag.campaign.events]
-    table = pd.DataFrame({e: diag.baseline.heldout.get(e, {}) for e in eids}).T.reindex(eids)
+    table = pd.DataFrame({e: diag.none_fit.heldout.get(e, {}) for e in eids}).T.reindex(eids)
     table = table.rename(columns=feature_label)
     table.index = _event_labels(diag.campaign, eids)
     return mismatch_heatmap(table, title="Base model: (model - recorded) / spread\n"

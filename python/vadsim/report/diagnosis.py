@@ -53,7 +53,7 @@ def _ranking(diag: Diagnosis) -> list[dict[str, Any]]:
     """One table per forward-selection step: each hypothesis' fitted values, held-out RMS and
     score against the model it extends."""
     tables = []
-    current = diag.baseline
+    current = diag.none_fit
     for i, step in enumerate(diag.steps):
         rows = [{"hypothesis": f.key, "k": str(f.k), "values": _parameters(f.values) or "-",
                  "held-out RMS (LOFO / block)": ("probe only " if f.probe else "")
@@ -86,8 +86,9 @@ def _nuisance(diag: Diagnosis) -> pd.DataFrame | None:
                      "range": f"{fmt_value(spec.lo)} to {fmt_value(spec.hi)} {spec.unit}",
                      "none (calibrated)": f"{fmt_value(base.nuisance[name])} "
                                           f"{_iv(base_iv.get(name))}",
-                     "final model": f"{fmt_value(final.nuisance[name])} "
-                                    f"{_iv(final_iv.get(name))}"})
+                     "final model": (f"{fmt_value(final.nuisance[name])} "
+                                     f"{_iv(final_iv.get(name))}" if name in final.nuisance
+                                     else f"{fmt_value(spec.null)} (nominal)")})
     return pd.DataFrame(rows).set_index("constant")
 
 
@@ -111,7 +112,7 @@ def _verdict(diag: Diagnosis) -> dict[str, Any]:
             params += [f"{k} = {v}" for k, v in cand.fixed.items()]
             effects.append({"id": cand.id, "key": key, "signature": cand.signature,
                             "params": params})
-    b = diag.baseline.heldout_rms
+    b = diag.none_fit.heldout_rms
     f = diag.final.heldout_rms
     return {"kind": diag.verdict, "text": diag.verdict_text(), "effects": effects,
             "unexplained": [{**u, "worst": ", ".join(f"{k} {v:+.1f}"
