@@ -45,7 +45,7 @@ from vadsim.model.change import Measurement, ModelChange
 from vadsim.model.settings import RunSettings
 from vadsim.model.simulate import G, SimulationResult, SolverError
 from vadsim.signals.features import Feature, event_features, summary_features
-from vadsim.signals.fold_features import model_fold_features, recorded_fold_features
+from vadsim.signals.fold_features import ALT_MARK, model_fold_features, recorded_fold_features
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, analog_chain, sensor_chain
 
 __all__ = [
@@ -316,7 +316,35 @@ def event_residuals(sim: EventSimulation, rec: Mapping[str, Feature],
             continue
         if z is not None:
             out[key] = z
+    _best_alignment(out, feats, rec, sim.phase_sd if resolution == "sensor" else {})
     return out
+
+
+def _best_alignment(out: dict[str, float], feats: Mapping[str, Feature],
+                    rec: Mapping[str, Feature], phase_sd: Mapping[str, float]) -> None:
+    """Where the model's fold of period n > 1 comes under alternative alignments (keys
+    ``<key>@cycle<c>``, :mod:`vadsim.signals.fold_features`, "Alignment"), take for each
+    period the one whose residuals over every sensor's features of that fold are smallest."""
+    alts: dict[str, set[str]] = {}
+    for key in feats:
+        if ALT_MARK in key:
+            base, cycle = key.split(ALT_MARK)
+            tag = next((p for p in base.split("_") if p.startswith("fold")), None)
+            if tag is not None:
+                alts.setdefault(tag, set()).add(cycle)
+    for tag, cycles in alts.items():
+        group = [k for k in out if f"_{tag}_" in k]
+        best = sum(out[k] ** 2 for k in group)
+        for cycle in sorted(cycles):
+            trial = {}
+            for k in group:
+                f = feats.get(f"{k}{ALT_MARK}{cycle}", feats[k])
+                z = standardised_residual(f, rec[k], phase_sd.get(k, 0.0))
+                trial[k] = z if z is not None else out[k]
+            cost = sum(v ** 2 for v in trial.values())
+            if cost < best:
+                best = cost
+                out.update(trial)
 
 
 def residual_table(sim: Mapping[str, Mapping[str, Feature]],
