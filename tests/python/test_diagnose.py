@@ -216,6 +216,15 @@ def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_diagnosis):
     assert any(m.kind != "offset" for m in d.located)  # located as a trend with flow
 
 
+def test_a_diagnosis_shows_its_verdict_and_ranking_in_a_notebook(hydraulic_diagnosis):
+    import html
+
+    page = html.unescape(hydraulic_diagnosis._repr_html_())
+    assert hydraulic_diagnosis.verdict_text() in page
+    for fit in hydraulic_diagnosis.ranking[:3]:
+        assert f">{fit.key}<" in page
+
+
 def test_fitted_physics_predicts_another_campaign_without_refitting(hydraulic_diagnosis):
     other = synthetic_campaign("7in-cde", (450.0, 550.0, 620.0), change=_truth(HYDRAULIC),
                                seed=13, **SMALL)

@@ -40,6 +40,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vadsim._html import grid_table, key_value_table
+
 __all__ = [
     "KNOWN_TOOLS",
     "KNOWN_BITS",
@@ -231,6 +233,21 @@ class Campaign:
     root: Path | None = field(default=None, compare=False)
     description: str = ""
     allow_outside: bool = field(default=False, compare=False, repr=False)
+
+    def _repr_html_(self) -> str:
+        sensors = "; ".join(f"{s.name} (dof {s.dof}, {s.rate_hz:g} Hz, {s.range_g:g} g)"
+                            for s in self.sensors.values())
+        head = key_value_table(f"Campaign: {self.name}", [
+            ("tool, bit", f"{self.tool}, {self.bit}"),
+            ("sensors", sensors or "none"),
+            ("events", str(len(self.events))),
+            ("folder", str(self.root) if self.root else "in memory"),
+        ])
+        rows = [(e.id, f"{e.flow_gpm:g}", f"{e.wob_klbf:g}",
+                 "time series" if e.data is not None else
+                 (", ".join(sorted(e.features)) or "-"))
+                for e in self.events]
+        return head + grid_table(("event", "flow (gal/min)", "WOB (klbf)", "data"), rows)
 
     def event(self, event_id: str) -> Event:
         """Return the event with this id.

@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vadsim._html import grid_table, key_value_table
 from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, EventEval
@@ -204,6 +205,22 @@ class Diagnosis:
         if self.prediction is not None:
             out["prediction"] = self.prediction
         return _jsonable(out)
+
+    def _repr_html_(self) -> str:
+        head = key_value_table(f"Diagnosis: {self.campaign.name}", [
+            ("verdict", self.verdict_text()),
+            ("held-out RMS z", f"{self.none_fit.heldout_rms:.3f} (none) -> "
+                               f"{self.final.heldout_rms:.3f} (final)"),
+            ("nuisance", ", ".join(f"{k} = {fmt_value(v)}"
+                                   for k, v in self.baseline.nuisance.items()) or "none"),
+            ("work", f"{len(self.campaign.events)} events, {self.n_evals} evaluations, "
+                     f"{self.elapsed_s:.0f} s"),
+        ])
+        rows = [(f.key, f.k, "probe" if f.probe else f"{f.heldout_rms:.3f}",
+                 "-" if f.probe else f"{f.score:.1f}", _params_text(f))
+                for f in self.ranking[:8]]
+        return head + grid_table(("first step: candidate", "k", "held-out RMS", "score",
+                                  "values"), rows)
 
     def summary(self) -> str:
         """A few lines for a terminal."""

@@ -10,7 +10,7 @@ true model wrote (no mismatch: no flag).
 Rule (per feature, over the events that have it):
 
 * **offset**: the mean standardised residual m is flagged when it is both significant (its
-  95 % t-interval excludes 0) and large (|m| > ``min_effect``, default 1.5 spreads);
+  95 % t-interval excludes 0) and large (``|m|`` > ``min_effect``, default 1.5 spreads);
 * **trend**: the least-squares slope of z against flow is flagged when its 95 % t-interval
   excludes 0 and the change it predicts across the campaign's flow range exceeds
   ``2 * min_effect``.
@@ -85,7 +85,7 @@ def locate(residuals: pd.DataFrame, flows: pd.Series | dict, min_effect: float =
     Returns
     -------
     list of Mismatch
-        Most severe first (by |mean z| plus the predicted change over the range).
+        Most severe first (by ``|mean z|`` plus the predicted change over the range).
     """
     if not (0.5 < level < 1):
         raise ValueError(f"level = {level} must be in (0.5, 1)")

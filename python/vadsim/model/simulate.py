@@ -18,8 +18,9 @@ import numpy as np
 import pandas as pd
 
 from vadsim import _core
+from vadsim._html import key_value_table
 from vadsim.model.presets import Preset, get_preset, make_params
-from vadsim.model.regimes import scenario
+from vadsim.model.regimes import regime_name, scenario
 
 __all__ = [
     "G",
@@ -173,7 +174,7 @@ class SimulationResult:
         return scenario(z["spring"], z["impact"])
 
     def peak_stats(self, dof: int = 1) -> tuple[float, float]:
-        """Mean and standard deviation (g) of the 200 ms window peaks of |a| at ``dof`` (1..7),
+        """Mean and standard deviation (g) of the 200 ms window peaks of ``|a|`` at ``dof`` (1..7),
         at the summary grid's full resolution."""
         if not 1 <= dof <= 7:
             raise ValueError(f"dof = {dof} must be in 1..7")
@@ -198,6 +199,23 @@ class SimulationResult:
         """What the solver did, in the words a ``solve_ivp`` user expects."""
         return (f"reached t = {self.window[1]:.6g} s ({self.cycles:g} cycles) in "
                 f"{self.stats['steps']} steps and {self.stats['reinits']} contact events")
+
+    def _repr_html_(self) -> str:
+        mean, std = self.peak_stats(1)
+        j = f"{self.impulse_pos:.4g} N/kg"
+        if self.m_ref_kg:
+            kn = self.impulse_pos * self.m_ref_kg / 1e3
+            j += f" ({kn:.3g} kN with m* = {self.m_ref_kg:.3g} kg)"
+        rows = [
+            ("operating point", f"{self.flow_gpm:g} gal/min, excitation {self.f_exc_hz:.3g} Hz"),
+            ("run", f"{self.cycles:g} cycles, last {self.analyse_cycles:g} analysed"),
+            ("impacts per cycle", ", ".join(f"{s} {v:.3g}" for s, v in self.z.items())),
+            ("scenario", f"{self.scenario}: {regime_name(self.scenario)}"),
+            ("200 ms peaks at x1", f"{mean:.3g} +- {std:.2g} g (full resolution)"),
+            ("J* (mean of max(F_I, 0))", j),
+            ("solver", f"{self.stats['steps']} steps, {self.stats['reinits']} contact events"),
+        ]
+        return key_value_table(f"SimulationResult: {self.preset or 'custom parameters'}", rows)
 
     def to_xarray(self) -> Any:
         """The recorded time series as an :class:`xarray.Dataset` with CF ``units`` and

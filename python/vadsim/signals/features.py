@@ -486,7 +486,7 @@ def sensor_features(
     partial window dropped). Keys:
 
     ``peak_mean_g``
-        Mean of the window peaks of |a|, g (:func:`vadsim.labels.peak_stats`); spread = the
+        Mean of the window peaks of ``|a|``, g (:func:`vadsim.labels.peak_stats`); spread = the
         standard deviation (``ddof=1``) of the window peaks. Windows with a clipped sample are
         left out; ``n`` = windows used.
     ``peak_std_g``

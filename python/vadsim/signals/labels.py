@@ -72,7 +72,7 @@ IMPACT_HEIGHT_FRAC: float = 0.5
 IMPACT_MIN_DISTANCE_S: float = 0.005
 """Minimum time between two major peaks, s.
 
-Noise and the ringing right after an impact make many local maxima of |a| within a few ms of
+Noise and the ringing right after an impact make many local maxima of ``|a|`` within a few ms of
 each spike; 5 ms merges them into one while still resolving 200 peaks/s, above twice the highest
 excitation frequency of both tools (2 x 69.3 Hz = 139 Hz, 7.2 ms apart).
 """
@@ -264,7 +264,7 @@ def window_bounds(n: int, rate_hz: float, window_s: float) -> np.ndarray:
 def window_peaks(
     signal: npt.ArrayLike, rate_hz: float, window_s: float = PEAK_WINDOW_S
 ) -> np.ndarray:
-    """Largest |a| in each consecutive full window (dissertation section 3.2).
+    """Largest ``|a|`` in each consecutive full window (dissertation section 3.2).
 
     Window i holds the samples whose times, counted from the first sample, fall in
     ``[i * window_s, (i + 1) * window_s)``; sample k stands for ``[k, k + 1) / rate_hz``. The
@@ -330,7 +330,7 @@ def impact_frequency(
 ) -> float:
     """Impact frequency: major acceleration peaks per second (MODEL.md).
 
-    A major peak is a local maximum of |a| (``scipy.signal.find_peaks``) that
+    A major peak is a local maximum of ``|a|`` (``scipy.signal.find_peaks``) that
 
     * reaches ``height_frac`` times the median of the window peaks (:func:`window_peaks`): the
       median window peak is the typical impact magnitude, robust to a few outlying windows, and
