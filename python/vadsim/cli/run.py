@@ -140,7 +140,7 @@ def _row(r: SimulationResult) -> dict[str, float | int | str]:
         "events": len(r.events),
     }
     if r.m_ref_kg:
-        row["j_pos_kN"] = round(r.impulse_pos * r.m_ref_kg / 1000.0, 4)
+        row["j_pos_kN"] = round(r.impulse_pos_kn, 4)
     return row
 
 

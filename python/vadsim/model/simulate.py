@@ -200,12 +200,17 @@ class SimulationResult:
         return (f"reached t = {self.window[1]:.6g} s ({self.cycles:g} cycles) in "
                 f"{self.stats['steps']} steps and {self.stats['reinits']} contact events")
 
+    @property
+    def impulse_pos_kn(self) -> float:
+        """J* (mean of max(F_I, 0)) in kN, with the preset's reference mass m*; NaN where the
+        run has no m* (J* is per unit m*, N/kg)."""
+        return self.impulse_pos * self.m_ref_kg / 1000.0 if self.m_ref_kg else math.nan
+
     def _repr_html_(self) -> str:
         mean, std = self.peak_stats(1)
         j = f"{self.impulse_pos:.4g} N/kg"
         if self.m_ref_kg:
-            kn = self.impulse_pos * self.m_ref_kg / 1e3
-            j += f" ({kn:.3g} kN with m* = {self.m_ref_kg:.3g} kg)"
+            j += f" ({self.impulse_pos_kn:.3g} kN with m* = {self.m_ref_kg:.3g} kg)"
         rows = [
             ("operating point", f"{self.flow_gpm:g} gal/min, excitation {self.f_exc_hz:.3g} Hz"),
             ("run", f"{self.cycles:g} cycles, last {self.analyse_cycles:g} analysed"),

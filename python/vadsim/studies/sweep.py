@@ -258,7 +258,7 @@ def _features(r, analyse_cycles: float) -> dict[str, Any]:
         "scenario": scenario(z["spring"], z["impact"]),
         "j_mean": r.impulse_mean,
         "j_pos": r.impulse_pos,
-        "j_pos_kN": r.impulse_pos * r.m_ref_kg / 1000.0 if r.m_ref_kg else math.nan,
+        "j_pos_kN": r.impulse_pos_kn,
         "x1_peak_mean_g": m1,
         "x1_peak_std_g": s1,
         "x5_peak_mean_g": m5,
