@@ -25,7 +25,7 @@ def _blocks() -> list[tuple[str, str]]:
     return [(m.group(1), m.group(2)) for m in BLOCK.finditer(README.read_text())]
 
 
-def _env(tmp_path: Path) -> dict[str, str]:
+def _env() -> dict[str, str]:
     env = dict(os.environ, MPLBACKEND="Agg")
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
     return env
@@ -49,7 +49,7 @@ def test_readme_starts_with_the_install_and_the_test_command():
 
 def test_the_main_job_of_the_first_command_runs(tmp_path):
     job = _blocks()[0][1].strip().split("&& ", 1)[1].replace(".venv/bin/", "")
-    out = subprocess.run(job, shell=True, cwd=tmp_path, env=_env(tmp_path), text=True,
+    out = subprocess.run(job, shell=True, cwd=tmp_path, env=_env(), text=True,
                          capture_output=True, timeout=HANG_S)
     assert out.returncode == 0, out.stderr
     for flow in ("200", "350", "600"):
@@ -60,7 +60,7 @@ def test_the_main_job_of_the_first_command_runs(tmp_path):
                                    if lang == "bash" and i >= 2])
 def test_bash_block_runs(tmp_path, index):
     for cmd in _commands(_blocks()[index][1]):
-        out = subprocess.run(cmd, shell=True, cwd=tmp_path, env=_env(tmp_path), text=True,
+        out = subprocess.run(cmd, shell=True, cwd=tmp_path, env=_env(), text=True,
                              capture_output=True, timeout=HANG_S)
         assert out.returncode == 0, f"{cmd}\n{out.stderr[-2000:]}"
 
@@ -68,7 +68,7 @@ def test_bash_block_runs(tmp_path, index):
 def test_python_blocks_run_in_order(tmp_path):
     code = "\n\n".join(body for lang, body in _blocks() if lang == "python")
     assert code
-    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=_env(tmp_path),
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=_env(),
                          text=True, capture_output=True, timeout=HANG_S)
     assert out.returncode == 0, out.stderr[-3000:]
     assert "missing physics: hydraulic_force" in out.stdout  # the diagnosis names it

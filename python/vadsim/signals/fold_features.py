@@ -583,13 +583,12 @@ def _alternative_spikes(probe: np.ndarray, period: int) -> dict[int, int]:
     return out
 
 
-def _aligned_means(count: np.ndarray, sums: np.ndarray, ref: int, bins: int,
+def _aligned_means(count: np.ndarray, sums: np.ndarray, probe: np.ndarray, bins: int,
                    coarse: int, at: int | None = None) -> np.ndarray:
     """Fine-bin means of a super-fine fold, aligned as :func:`spike_origin` aligns a recording:
-    the reference's spike (located on the fine bins; the largest, or the one at fine bin
-    ``at``) moved to the centre of fine bin ``per // 2`` by a whole number of super-fine bins
-    (within 1/16 of a fine bin)."""
-    probe = _fine_probe(count, sums, ref)
+    the reference's spike (located on its fine-bin means ``probe``, :func:`_fine_probe`; the
+    largest, or the one at fine bin ``at``) moved to the centre of fine bin ``per // 2`` by a
+    whole number of super-fine bins (within 1/16 of a fine bin)."""
     spike = _spike(probe, at)
     target = (bins // coarse) // 2 + 0.5
     shift = round((spike - target) * _SUPER) if math.isfinite(spike) else 0
@@ -651,9 +650,9 @@ def model_fold_features(
             c = count.reshape(base // n, -1).sum(axis=0)
             s = sums.reshape(len(names), base // n, -1).sum(axis=1)
             folds = {k: _Shape(n, f_hz) for k in names}
-            alternatives = _alternative_spikes(_fine_probe(c, s, names.index(ref)), n)
-            for alt, at in [(None, None), *alternatives.items()]:
-                means = _aligned_means(c, s, names.index(ref), bins, coarse, at)
+            probe = _fine_probe(c, s, names.index(ref))
+            for alt, at in [(None, None), *_alternative_spikes(probe, n).items()]:
+                means = _aligned_means(c, s, probe, bins, coarse, at)
                 vals = _sensor_values(folds, ref, dict(zip(names, means, strict=True)), coarse,
                                       alternative=alt is not None)
                 mark = "" if alt is None else f"{ALT_MARK}{alt}"
