@@ -113,6 +113,25 @@ def test_probe_subset_spans_the_flows_and_keeps_only_folds_it_can_score():
     assert _probe_subset(small, make_folds(small), 6)[0] == tuple(e.id for e in small.events)
 
 
+def test_probe_subset_takes_the_worst_fitted_events_and_spreads_the_rest():
+    from vadsim.fit.diagnose import PROBE_WORST, _probe_subset
+
+    flows = (200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0, 650.0)
+    camp = synthetic_campaign("7in-cde", flows, cycles=40, analyse_cycles=20, noise_g=0.0)
+    folds = make_folds(camp)
+    spread, _ = _probe_subset(camp, folds, 6)
+    # the misfit sits in three events the flow-spread subset leaves out
+    hidden = [e.id for e in camp.events if e.id not in spread][:PROBE_WORST]
+    misfit = {e.id: (9.0 if e.id in hidden else 0.5) for e in camp.events}
+    eids, kept = _probe_subset(camp, folds, 6, misfit)
+    assert len(eids) == 6 and set(hidden) <= set(eids)
+    others = [ev.flow_gpm for ev in camp.events if ev.id in eids and ev.id not in hidden]
+    rest = [ev.flow_gpm for ev in camp.events if ev.id not in hidden]
+    assert min(others) == min(rest) and max(others) == max(rest)
+    for _, train, test in kept:
+        assert train and test and set(train + test) <= set(eids)
+
+
 def test_a_coarse_grid_runs_only_its_best_points_at_full_fidelity():
     from vadsim.campaigns import campaign_preset
     from vadsim.compare import CampaignEvaluator

@@ -43,7 +43,7 @@ import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -97,6 +97,11 @@ highest included (every event when the campaign has no more). A probe only ranks
 candidates for the full fits. Measured on the 10-event hydraulic benchmark: the same top 3
 of 23 as probes on every event at full length (the 4th changed: excitation_amplitude for
 mass[mwd]), and the same verdict and values."""
+
+PROBE_WORST = 3
+"""Of the :data:`PROBE_EVENTS`, how many a screening probe takes from the events the
+calibrated base model fits worst (the rest stay spread over the flows, for effects that
+grow with flow)."""
 
 PROBE_CYCLE_FRACTION = 2.0 / 3.0
 """A probe's run length and analysed window as a fraction of the diagnosis' (300/200 cycles
@@ -454,15 +459,27 @@ class _Context:
                                  keys=self.keys, phases=self.phases, workers=workers)
 
 
-def _probe_subset(camp: Campaign, folds: Sequence[Fold], n: int
+def _probe_subset(camp: Campaign, folds: Sequence[Fold], n: int,
+                  misfit: Mapping[str, float] | None = None
                   ) -> tuple[tuple[str, ...], tuple[Fold, ...]]:
-    """``n`` events spread evenly over the flows (all if there are no more) and the folds
-    restricted to them (a fold left without training or held-out events is dropped)."""
-    by_flow = sorted(camp.events, key=lambda e: e.flow_gpm)
-    if len(by_flow) <= n:
+    """``n`` events (all if there are no more) and the folds restricted to them (a fold left
+    without training or held-out events is dropped).
+
+    Without ``misfit`` the events are spread evenly over the flows, the lowest and the
+    highest included (the base calibration's grids, before any residual is known). With
+    ``misfit`` (event id -> the calibrated base model's RMS z) the :data:`PROBE_WORST` worst
+    events come first and the rest are spread over the other events' flows: a probe on
+    events the base model already fits cannot see the effect (measured on a blind campaign,
+    impact-face stiffness x2.5: the flow-spread subset held 24 % of the base cost, and the
+    true candidate's probe fell outside the top 4)."""
+    if len(camp.events) <= n:
         return tuple(e.id for e in camp.events), tuple(folds)
-    pick = sorted({int(round(i)) for i in np.linspace(0, len(by_flow) - 1, n)})
-    chosen = {by_flow[i].id for i in pick}
+    worst: set[str] = set()
+    if misfit:
+        worst = set(sorted(misfit, key=lambda e: -misfit[e])[:min(PROBE_WORST, n)])
+    rest = sorted((e for e in camp.events if e.id not in worst), key=lambda e: e.flow_gpm)
+    pick = sorted({int(round(i)) for i in np.linspace(0, len(rest) - 1, n - len(worst))})
+    chosen = worst | {rest[i].id for i in pick}
     eids = tuple(e.id for e in camp.events if e.id in chosen)
     kept = []
     for name, train, test in folds:
@@ -751,6 +768,10 @@ def diagnose(
         located, located_events = _locate(camp, ev, {e: base_eval[(base.point, e)]
                                                       for e in eids})
         say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
+        misfit = {e: float(np.sqrt(np.mean(np.square(base_eval[(base.point, e)].z))))
+                  for e in eids}
+        probe_eids, probe_folds = _probe_subset(camp, folds, PROBE_EVENTS, misfit)
+        ctx = replace(ctx, probe_eids=probe_eids, probe_folds=probe_folds)
         none = none_model(base, plain)
         sel = _forward_selection(ctx, ev, coarse_ev, base, none, keys, opts, say, b.update)
         final = sel.chosen or none
