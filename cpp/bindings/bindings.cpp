@@ -56,6 +56,7 @@ void bind_params(py::module_& m) {
       .def_readwrite("law", &Params::law)
       .def("validate", &Params::validate)
       .def("gap", &Params::gap)
+      .def("spring_length", &Params::spring_length)
       .def("excitation_hz", &Params::excitation_hz, py::arg("flow_gpm"))
       .def("flow_range_gpm", &Params::flow_range_gpm,
            "The flow rates (gal/min) whose excitation lies in EXCITATION_HZ_RANGE")
@@ -70,7 +71,9 @@ void bind_params(py::module_& m) {
           },
           [](const py::dict& d) {
             Params p;
-            for (const auto& info : param_table()) p.*info.member = d[info.name].cast<double>();
+            // A name missing from an older pickle keeps its default (theta0, L_gap: unset).
+            for (const auto& info : param_table())
+              if (d.contains(info.name)) p.*info.member = d[info.name].cast<double>();
             p.law = static_cast<ContactLawKind>(d["law"].cast<int>());
             return p;
           }));
@@ -86,6 +89,7 @@ void bind_params(py::module_& m) {
       const char* rule = info.rule == ParamInfo::Rule::Positive      ? "positive"
                          : info.rule == ParamInfo::Rule::NonNegative ? "non-negative"
                          : info.rule == ParamInfo::Rule::Exponent    ? "exponent"
+                         : info.rule == ParamInfo::Rule::Optional    ? "optional"
                                                                      : "finite";
       out.append(py::make_tuple(info.name, info.unit, info.meaning, rule, info.lo, info.hi));
     }
@@ -117,6 +121,8 @@ void bind_model(py::module_& m) {
       .def_property_readonly("params", &Model::params)
       .def_property_readonly("static_positions", &Model::static_positions)
       .def_property_readonly("x_top", &Model::x_top)
+      .def_property_readonly("rest_phase", &Model::rest_phase,
+                             "The excitation phase at rest theta0 the run uses (rad)")
       .def("indentation",
            [](const Model& mo, int s, const State& y) {
              if (s < 0 || s >= kSurfaces) throw std::invalid_argument("surface index 0..4");

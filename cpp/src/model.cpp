@@ -44,7 +44,7 @@ const char* Model::surface_name(int s) {
 }
 
 Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
-    : p_(p), extras_(std::move(extras)), exc_(p) {
+    : p_(p), extras_(std::move(extras)), exc_(p, 0.0) {
   p_.validate();
   for (const auto& e : extras_)
     if (!e) throw std::invalid_argument("extra force is null");
@@ -60,6 +60,14 @@ Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
   xs_[6] = xs_[5] + compliance_term(w, p_.k6, "k6");
   x_top_ = xs_[6] + compliance_term(w, p_.k7, "k7");
   rel23_static_ = xs_[1] - xs_[2];
+  theta0_ = p_.theta0;
+  if (std::isnan(theta0_)) {
+    // The dissertation's psi at this rest state, reduced to [0, 2 pi): the same phase, a
+    // readable number (theta0 +- pi is the same steady state but not the same run).
+    theta0_ = std::fmod(p_.beta * rel23_static_ + p_.psi, 2.0 * M_PI);
+    if (theta0_ < 0) theta0_ += 2.0 * M_PI;
+  }
+  exc_ = Excitation(p_, theta0_);
 
   const double m[kDof] = {p_.m1, p_.m2, p_.m3, p_.m4, p_.m5, p_.m6, p_.m7};
   for (int i = 0; i < kDof; ++i) inv_mass_[i] = 1.0 / m[i];
@@ -79,7 +87,7 @@ Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
   f_static_[6] += p_.k7 * x_top_;
 
   // Indentations of MODEL.md's table, in absolute positions: d = sa x_a + sb x_b + off.
-  const double off_abs[kSurfaces] = {(p_.LS + p_.L2) * l0, 0.0, (p_.LI - p_.L3) * l0,
+  const double off_abs[kSurfaces] = {(p_.spring_length() + p_.L2) * l0, 0.0, (p_.LI - p_.L3) * l0,
                                      (p_.L3 - p_.LI - p_.LOn) * l0, (p_.L1 - p_.LR) * l0};
   const int ia[kSurfaces] = {2, 1, 0, 2, 0}, ib[kSurfaces] = {1, 0, 2, 0, -1};
   for (int s = 0; s < kSurfaces; ++s) {
@@ -150,7 +158,7 @@ void Model::evaluate(double t, double flow_gpm, const Eigen::Ref<const State>& y
     out.fc[s] = F;
   }
   double dfh;
-  out.fh = exc_.force(t, flow_gpm, rel23_static_ + u[1] - u[2], dfh);
+  out.fh = exc_.force(t, flow_gpm, u[1] - u[2], dfh);
   double ddrag;
   out.f[1] += out.fh - exc_.drag(v[1], ddrag);
   if (!extras_.empty()) {
@@ -190,7 +198,7 @@ void Model::jacobian(double t, double flow_gpm, const Eigen::Ref<const State>& y
     }
   }
   double dfh, ddrag;
-  exc_.force(t, flow_gpm, rel23_static_ + u[1] - u[2], dfh);
+  exc_.force(t, flow_gpm, u[1] - u[2], dfh);
   exc_.drag(v[1], ddrag);
   dfdx(1, 1) += dfh;
   dfdx(1, 2) -= dfh;

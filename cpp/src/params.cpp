@@ -41,6 +41,7 @@ constexpr double kMaxLengthM = 1e3;
 std::string range_text(const ParamInfo& info) {
   std::ostringstream os;
   if (info.rule == R::NonNegative && info.lo > 0) os << "0 or ";
+  if (info.rule == R::Optional) os << "nan (unset) or ";
   os << "in [" << info.lo << ", " << info.hi << "] " << info.unit;
   return os.str();
 }
@@ -113,6 +114,10 @@ const std::vector<ParamInfo>& param_table() {
       {"l0", "m", "standard length", R::Positive, &Params::l0, kL0[0], kL0[1]},
       {"wob", "N/kg", "weight on bit per unit reference mass", R::NonNegative, &Params::wob,
        kForce[0], kForce[1]},
+      {"theta0", "rad", "excitation phase at rest (nan: from psi)", R::Optional,
+       &Params::theta0, kPhase[0], kPhase[1]},
+      {"L_gap", "l0", "anvil-spring gap (nan: from LS)", R::Optional, &Params::L_gap,
+       kLength[0], kLength[1]},
       {"hc_n", "-", "Hunt-Crossley exponent", R::Exponent, &Params::hc_n, kExponent[0],
        kExponent[1]},
       {"hc_alpha", "s/m", "Hunt-Crossley damping factor", R::NonNegative, &Params::hc_alpha,
@@ -150,8 +155,10 @@ void Params::validate() const {
   for (const auto& info : param_table()) {
     const double v = this->*info.member;
     std::string why;
-    if (!std::isfinite(v)) {
-      why = "must be finite";
+    if (info.rule == R::Optional && std::isnan(v)) {
+      continue;  // unset: derived from the others
+    } else if (!std::isfinite(v)) {
+      why = info.rule == R::Optional ? "must be nan (unset) or finite" : "must be finite";
     } else if (!in_range(info, v)) {
       why = "must be " + range_text(info);
     }
@@ -172,13 +179,20 @@ void Params::validate() const {
   for (const auto& info : param_table()) {
     if (std::string(info.unit) != "l0") continue;
     const double v = this->*info.member;
-    if (std::abs(v) * l0 > kMaxLengthM) {
+    if (std::abs(v) * l0 > kMaxLengthM) {  // false for an unset (NaN) length
       std::ostringstream os;
       os << "parameter " << info.name << " = " << v << " l0 is " << std::abs(v) * l0
          << " m long with l0 = " << l0 << " m: |" << info.name << "| * l0 must be <= "
          << kMaxLengthM << " m (" << info.meaning << ", l0)";
       throw std::invalid_argument(os.str());
     }
+  }
+  if (!std::isnan(L_gap) && std::abs(spring_length()) * l0 > kMaxLengthM) {
+    std::ostringstream os;
+    os << "parameter L_gap = " << L_gap << " l0 gives a recoil spring length LS = "
+       << spring_length() << " l0, " << std::abs(spring_length()) * l0
+       << " m long with l0 = " << l0 << " m: it must be <= " << kMaxLengthM << " m";
+    throw std::invalid_argument(os.str());
   }
 }
 

@@ -222,8 +222,8 @@ def test_excitation_amplitude_power_acts_away_from_the_reference_flow_only():
 def test_excitation_phase_slope_is_nothing_at_the_reference_flow():
     ch = CANDIDATES["excitation_phase"].change({"slope": 0.8})
     assert _same_run(_run(ch, 400.0), _base(400.0))
-    assert ch.apply(SETTINGS, 650.0).param("psi") == pytest.approx(
-        SETTINGS.param("psi") + 0.8 * (650.0 / 400.0 - 1.0))
+    assert ch.apply(SETTINGS, 650.0).param("theta0") == pytest.approx(
+        SETTINGS.param("theta0") + 0.8 * (650.0 / 400.0 - 1.0))
     assert not _same_run(_run(ch, 650.0), _base(650.0))
 
 

@@ -56,8 +56,11 @@ NAMED_RE = re.compile(r"\b(?:parameter|option) (\w+)")
 
 def violates_rule(name: str, value: float) -> bool:
     """True if ``value`` is outside the documented range of parameter ``name``
-    (``param_ranges``: "non-negative" is 0 or [lo, hi], the other rules [lo, hi])."""
+    (``param_ranges``: "non-negative" is 0 or [lo, hi], "optional" nan (unset) or [lo, hi],
+    the other rules [lo, hi])."""
     rule, lo, hi = PARAM_RANGES[name]
+    if rule == "optional" and math.isnan(value):
+        return False
     if not math.isfinite(value):
         return True
     if rule == "non-negative" and value == 0:
@@ -268,7 +271,9 @@ def expected_refusals(case: dict) -> tuple[set[str], bool]:
     with np.errstate(all="ignore"):
         l0 = np.float64(params["l0"])
         for n in LENGTHS:
-            if not abs(params[n]) * l0 <= MAX_LENGTH_M:
+            v = params.get(n, math.nan)  # an unset optional length (L_gap) is not in params
+            if not abs(v) * l0 <= MAX_LENGTH_M and not (
+                    PARAM_RANGES[n][0] == "optional" and math.isnan(v)):
                 bad.add(n)
         wob = np.float64(params["wob"])
         for k in STATIC_LOAD_PATH:
@@ -490,7 +495,7 @@ def test_fuzz_subprocess_never_crashes(tmp_path):
 # In-process hypothesis fuzz (fewer examples)
 # --------------------------------------------------------------------------------------------
 
-_SCALED_PARAMS = [n for n in PARAM_RULES if n != "hc_n"]
+_SCALED_PARAMS = [n for n, rule in PARAM_RULES.items() if n != "hc_n" and rule != "optional"]
 
 
 @st.composite

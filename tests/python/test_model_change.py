@@ -3,7 +3,7 @@
 import math
 
 import pytest
-from vadsim.model.change import ModelChange, psi_for_theta0, rest_phase
+from vadsim.model.change import ModelChange, rest_phase
 from vadsim.model.settings import RunSettings
 
 
@@ -17,21 +17,31 @@ def test_rest_phase_matches_model_md(base):
     assert rest_phase(base) == pytest.approx(2.264, abs=5e-4)
 
 
-def test_theta0_sets_psi_in_the_changed_model(base):
-    changed = ModelChange(scales={"wob": 1.1}, theta0=2.553).apply(base)
-    assert rest_phase(changed) == pytest.approx(2.553, abs=1e-9)
-    # psi is computed after the WOB scale: the rest gap depends on wob / kOn
-    assert changed.param("psi") == pytest.approx(psi_for_theta0(changed, 2.553))
+def test_theta0_is_held_whatever_the_other_changes_do_to_the_rest_state(base):
+    changed = ModelChange(scales={"wob": 1.1, "l0": 1.01}, theta0=2.553).apply(base)
+    assert changed.param("theta0") == 2.553 and rest_phase(changed) == pytest.approx(2.553)
+    # without theta0 the same scales keep the preset's phase at rest (it is held too)...
+    kept = ModelChange(scales={"wob": 1.1, "l0": 1.01}).apply(base)
+    assert rest_phase(kept) == pytest.approx(rest_phase(base), abs=1e-12)
+    # ...while the dissertation's parameterisation (theta0 unset) moves it by beta dl0 (L3 -
+    # LI - LOn) + beta dwob / kOn: 379 rad per metre of l0
+    free = ModelChange(scales={"l0": 1.01}).apply(base.with_changes(overrides={"theta0": math.nan}))
+    moved = (rest_phase(free) - rest_phase(base) + math.pi / 2) % math.pi - math.pi / 2
+    assert moved == pytest.approx((0.007 * 95.2 * 3.98 + math.pi / 2) % math.pi - math.pi / 2,
+                                  abs=1e-6)
 
 
 def test_flow_power_and_slope_at_event_flow(base):
-    ch = ModelChange(flow_powers={"Fo": 0.5}, flow_slopes={"psi": 0.3})
+    ch = ModelChange(flow_powers={"Fo": 0.5}, flow_slopes={"theta0": 0.3})
     at_ref = ch.apply(base, 400.0)
     assert at_ref.param("Fo") == pytest.approx(base.param("Fo"))
-    assert at_ref.param("psi") == pytest.approx(base.param("psi"))
+    assert at_ref.param("theta0") == pytest.approx(base.param("theta0"))
     at_800 = ch.apply(base, 800.0)
     assert at_800.param("Fo") == pytest.approx(base.param("Fo") * math.sqrt(2.0))
-    assert at_800.param("psi") == pytest.approx(base.param("psi") + 0.3)
+    assert at_800.param("theta0") == pytest.approx(base.param("theta0") + 0.3)
+    # a slope on an unset phase at rest starts from the phase psi gives, not from nan
+    unset = base.with_changes(overrides={"theta0": math.nan})
+    assert ch.apply(unset, 800.0).param("theta0") == pytest.approx(base.param("theta0") + 0.3)
     with pytest.raises(ValueError, match="needs the event's flow"):
         ch.apply(base)
 

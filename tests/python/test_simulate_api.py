@@ -608,8 +608,11 @@ def test_every_preset_runs(name, flow):
 def test_preset_lookup_and_rc_differs_only_in_m1():
     assert vadsim.preset_names() == ["7in-cde", "7in-rc", "9.5in-pdc", "7in-cde-cal",
                                      "7in-rc-cal"]
-    cal = vadsim.PRESETS["7in-cde-cal"].params  # the calibrated pair differs only in l0, wob
-    assert {k for k in cal if cal[k] != vadsim.PRESETS["7in-cde"].params[k]} == {"l0", "wob"}
+    # the calibrated pair differs only in l0, wob and the phase at rest that its l0 gives
+    cal = vadsim.PRESETS["7in-cde-cal"].params
+    assert {k for k in cal if cal[k] != vadsim.PRESETS["7in-cde"].params[k]} == {
+        "l0", "wob", "theta0"}
+    assert vadsim.PRESETS["7in-cde-cal"].theta0 == pytest.approx(2.5057, abs=1e-4)  # MODEL.md
     assert vadsim.PRESETS["7in-rc-cal"].params["m1"] == 1.29
     cde, rc = vadsim.PRESETS["7in-cde"].params, vadsim.PRESETS["7in-rc"].params
     assert set(cde) == set(rc)

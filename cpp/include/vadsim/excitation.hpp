@@ -10,19 +10,25 @@
 namespace vadsim {
 
 /// @brief F_H = Fo cos(alpha Q t + phi) sin(beta (x2 - x3) + psi) and F_D = cD v2 |v2|.
+///
+/// Written as sin(beta du + theta0), du = (x2 - x3) - (x2 - x3)_rest: the phase at rest theta0
+/// is what the dynamics depends on (MODEL.md), and beta du stays small where beta (x2 - x3) is
+/// some 260 rad whose rounding the subtraction of psi would keep.
 struct Excitation {
-  double Fo, alpha, beta, phi, psi, cD;
+  double Fo, alpha, beta, phi, theta0, cD;
 
-  explicit Excitation(const Params& p)
-      : Fo(p.Fo), alpha(p.alpha), beta(p.beta), phi(p.phi), psi(p.psi), cD(p.cD) {}
+  /// @brief theta0: the phase at rest, Params::theta0 or the one psi and the rest state give.
+  Excitation(const Params& p, double theta0_at_rest)
+      : Fo(p.Fo), alpha(p.alpha), beta(p.beta), phi(p.phi), theta0(theta0_at_rest), cD(p.cD) {}
 
   /// @brief Angular frequency (rad/s) at a flow rate (gal/min).
   double omega(double flow_gpm) const { return alpha * flow_gpm; }
 
-  /// @brief Force on the anvil; rel = x2 - x3 in metres. dF_drel receives dF/d(x2 - x3).
-  double force(double t, double flow_gpm, double rel, double& dF_drel) const {
+  /// @brief Force on the anvil; du = (x2 - x3) - (x2 - x3)_rest in metres. dF_drel receives
+  /// dF/d(x2 - x3).
+  double force(double t, double flow_gpm, double du, double& dF_drel) const {
     const double c = Fo * std::cos(omega(flow_gpm) * t + phi);
-    const double arg = beta * rel + psi;
+    const double arg = beta * du + theta0;
     dF_drel = c * beta * std::cos(arg);
     return c * std::sin(arg);
   }

@@ -40,6 +40,10 @@ class Model {
   const Vec7& static_positions() const { return xs_; }
   /// @brief Position of the top support (m).
   double x_top() const { return x_top_; }
+  /// @brief The excitation phase at rest theta0 the run uses (rad): Params::theta0 when set,
+  /// else beta (x2 - x3)_rest + psi reduced to [0, 2 pi). Setting Params::theta0 to this
+  /// value gives the same run bit for bit, whatever l0 then does.
+  double rest_phase() const { return theta0_; }
 
   /// @brief Contact indentation d (m) and its rate d' (m/s) for a state [u; v].
   /// Inline: the root functions and the missed-crossing guard call these ~10 times a step.
@@ -88,7 +92,8 @@ class Model {
   double link_k_[5] = {}, link_c_[5] = {};  // k3..k7, c3..c7 of the chain's links
   Vec7 xs_;
   double x_top_ = 0;
-  double rel23_static_ = 0;  // x2 - x3 at rest, m (the excitation's position argument)
+  double rel23_static_ = 0;  // x2 - x3 at rest, m
+  double theta0_ = 0;        // the excitation phase at rest (rad)
 };
 
 }  // namespace vadsim

@@ -3,6 +3,8 @@
 /// @brief The model's parameters as one plain struct, plus a name table so that every layer
 /// (C++, bindings, presets, calibration) addresses a parameter by the same name.
 
+#include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -38,6 +40,15 @@ struct Params {
   // withheld constants
   double l0 = 0.7;     ///< standard length (m)
   double wob = 1000;   ///< weight on bit per unit reference mass (N/kg)
+  // The constants the published numbers cannot fix (MODEL.md, last section). Unset (NaN), each
+  // is derived from Table 2.1 as the dissertation does; set, it is held whatever l0, wob or the
+  // other lengths are, so that l0 is only the waveform's length scale.
+  /// Excitation phase at rest theta0 = beta (x2 - x3)_rest + psi (rad). Set, psi is ignored.
+  /// theta0 and theta0 + pi give the same steady state (half an excitation cycle apart).
+  double theta0 = std::numeric_limits<double>::quiet_NaN();
+  /// Anvil-spring gap L3 - (L2 + LS + LI + LOn) (l0). Set, the recoil spring's length LS is
+  /// derived from it (the spring end realises the gap, as MODEL.md reads Eq. 5.1).
+  double L_gap = std::numeric_limits<double>::quiet_NaN();
   // contact-law options (used when law != KelvinVoigt)
   double hc_n = 1.0;       ///< Hunt-Crossley exponent n
   double hc_alpha = 0.2;   ///< Hunt-Crossley damping factor (s/m): lambda = hc_alpha * k
@@ -50,7 +61,12 @@ struct Params {
 
   /// @brief Gap between anvil and recoil spring with anvil on bit and bit on the on-bottom
   /// shoulder (dissertation Eq. 5.1), in l0.
-  double gap() const { return L3 - (L2 + LS + LI + LOn); }
+  double gap() const { return std::isnan(L_gap) ? L3 - (L2 + LS + LI + LOn) : L_gap; }
+
+  /// @brief The recoil spring's length the model uses (l0): LS, or the one L_gap implies.
+  double spring_length() const {
+    return std::isnan(L_gap) ? LS : L3 - (L2 + LI + LOn) - L_gap;
+  }
 
   /// @brief Excitation frequency (Hz) at a flow rate (gal/min).
   double excitation_hz(double flow_gpm) const;
@@ -79,12 +95,13 @@ constexpr double kMaxExcitationHz = 2000.0;
 /// @brief A numeric parameter's name, unit, meaning, and the range it must lie in.
 ///
 /// Positive, Finite, Exponent: lo <= v <= hi. NonNegative: v == 0 or lo <= v <= hi (so a
-/// non-zero stiffness, damping or force is a normal number, never subnormal).
+/// non-zero stiffness, damping or force is a normal number, never subnormal). Optional: NaN
+/// (unset: derived from the others) or lo <= v <= hi.
 struct ParamInfo {
   const char* name;
   const char* unit;
   const char* meaning;
-  enum class Rule { Positive, NonNegative, Finite, Exponent } rule;
+  enum class Rule { Positive, NonNegative, Finite, Exponent, Optional } rule;
   double Params::*member;
   double lo, hi;  ///< the physical range, in unit
 };

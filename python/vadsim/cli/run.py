@@ -7,6 +7,7 @@ machinery (xarray, dask), so a single run starts quickly.
 from __future__ import annotations
 
 import argparse
+import math
 import json
 import time
 from collections.abc import Callable, Sequence
@@ -191,11 +192,15 @@ def _cmd_presets(args: argparse.Namespace) -> int:
         print(f"{p.name}: {p.tool} tool, {p.bit} bit, WOB {p.wob_klbf:g} klbf, "
               f"m* = {p.m_ref_kg:.2f} kg, law {p.law}\n{p.note}")
         for name, unit, meaning, _ in param_table():
-            print(f"  {name:>9} = {p.params[name]:<12.6g} {unit:<18} {meaning}")
+            value = p.params.get(name, math.nan)
+            shown = "unset" if math.isnan(value) else f"{value:.6g}"
+            print(f"  {name:>9} = {shown:<12} {unit:<18} {meaning}")
+        print(f"  (theta0 = {p.theta0 % math.pi:.4f} rad mod pi; gap = {p.gap:.6g} l0)")
         return 0
     for p in PRESETS.values():
         print(f"{p.name:<10} {p.tool:>6} {p.bit:<4} WOB {p.wob_klbf:g} klbf  "
-              f"l0 {p.params['l0']:g} m  wob {p.params['wob']:g} N/kg")
+              f"l0 {p.params['l0']:g} m  wob {p.params['wob']:g} N/kg  "
+              f"theta0 {p.theta0 % math.pi:.3f} rad (mod pi)  gap {p.gap:.4g} l0")
     return 0
 
 

@@ -30,7 +30,7 @@ import pandas as pd
 from vadsim._progress import bar
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, ModelChange, recorded_features
-from vadsim.model.presets import Preset, canonical_name, make_params
+from vadsim.model.presets import Preset, canonical_name, make_params, param_names
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
 
@@ -41,7 +41,9 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
     "l0": (0.4, 1.4),
     "wob": (200.0, 2500.0),
 }
-"""Search ranges of the withheld constants: l0 in metres, wob in N/kg."""
+"""Search ranges of the withheld constants: l0 in metres, wob in N/kg. ``theta0`` (rad)
+searches half a turn each side of its start (every distinct phase once: theta0 + pi is the
+same steady state); an unset one (nan) cannot be calibrated: set it first."""
 
 
 
@@ -263,7 +265,9 @@ def calibrate(
         best cells of the ``n_starts`` best stripes, then polish from the ``n_starts`` best
         distinct points (see the comment in the code; ``alias_stripes=0`` turns it off).
         While the best stripe is at an end of those scanned, up to ``max_alias_rounds``
-        times ``alias_stripes`` more stripes are scanned beyond it.
+        times ``alias_stripes`` more stripes are scanned beyond it. Only while ``theta0`` is
+        unset (``theta0=nan``): a set phase at rest (every built-in preset's) makes ``l0`` a
+        length scale without aliases, and the search is skipped.
     max_nfev
         Evaluations per local polish (``scipy.optimize.least_squares``).
     profile_points
@@ -290,6 +294,9 @@ def calibrate(
     bounds = {canonical_name(k): v for k, v in (bounds or {}).items()}
     start = {canonical_name(k): v for k, v in (start or {}).items()}
     x0, lim = _start_and_bounds(settings, names, bounds, start)
+    # l0 moves the excitation phase (and has 8.3 mm aliases) only while theta0 is unset
+    if not math.isnan(settings.param("theta0")) or "theta0" in names:
+        alias_stripes = 0
     options: dict[str, Any] = dict(global_stage=global_stage, n_global=n_global, n_starts=n_starts,
                    alias_stripes=alias_stripes, alias_grid=alias_grid,
                    alias_refine=alias_refine, max_alias_rounds=max_alias_rounds,
@@ -315,15 +322,21 @@ def _start_and_bounds(settings: RunSettings, names: list[str],
     base = {**settings.preset.params, **settings.overrides}
     make_params(base)  # every name and override checked before any run
     for n in names:
-        if n not in base:
+        if n not in param_names():
             raise ValueError(f"unknown parameter {n!r}")
-    x0 = {n: float((start or {}).get(n, base[n])) for n in names}
+    x0 = {n: float((start or {}).get(n, settings.param(n))) for n in names}
+    for n in names:
+        if not math.isfinite(x0[n]):
+            raise ValueError(f"start {n} = {x0[n]!r} is unset: give a start (e.g. {n} = the "
+                             "value the preset derives, vadsim.presets.rest_phase) or set it")
     lim: dict[str, tuple[float, float]] = {}
     for n in names:
         if bounds and n in bounds:
             lo, hi = (float(v) for v in bounds[n])
         elif n in DEFAULT_BOUNDS:
             lo, hi = DEFAULT_BOUNDS[n]
+        elif n == "theta0":
+            lo, hi = x0[n] - math.pi / 2, x0[n] + math.pi / 2
         else:
             lo, hi = (0.5 * x0[n], 2.0 * x0[n]) if x0[n] > 0 else (2.0 * x0[n], 0.5 * x0[n])
         lim[n] = (lo, hi)

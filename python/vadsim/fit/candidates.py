@@ -60,7 +60,7 @@ Generic "a quantity is not what we think" (group ``"quantity"``)
     pulse valve). ``factor`` in [0.5, 2] (log) moves every flow; ``p`` in [-1.5, 1.5] tilts
     the features about 400 gal/min. Null: factor 1, p 0.
 ``excitation_phase``
-    ``psi + slope (Q / 400 - 1)``: the excitation phase at rest drifts with flow (a valve
+    ``theta0 + slope (Q / 400 - 1)``: the excitation phase at rest drifts with flow (a valve
     timing that depends on flow). Its constant part is the nuisance ``theta0`` a diagnosis
     fits anyway; the slope changes nothing at 400 gal/min and most in the phase-sensitive
     regimes (300-500 gal/min for the 7in tool). Null: 0.
@@ -393,10 +393,10 @@ def _excitation_phase() -> Candidate:
         id="excitation_phase", variant="",
         params=(ParamSpec("slope", -1.5, 1.5, "rad", "linear", 0.0, grid=13),),
         side="model",
-        signature=("psi + slope (Q/400 - 1): the excitation phase drifts with flow; nothing "
+        signature=("theta0 + slope (Q/400 - 1): the excitation phase drifts with flow; nothing "
                    "changes at 400 gal/min, regimes and peaks move away from it, most in the "
                    "phase-sensitive middle flows (300-500 gal/min for the 7in tool)."),
-        build=lambda v: (ModelChange(flow_slopes={"psi": v["slope"]}) if v["slope"] != 0.0
+        build=lambda v: (ModelChange(flow_slopes={"theta0": v["slope"]}) if v["slope"] != 0.0
                          else ModelChange()),
         group="quantity",
     )

@@ -16,10 +16,11 @@ A change holds
 * ``flow_powers``: parameters multiplied by ``(Q / flow_ref_gpm)^p`` at each event's flow
   (an excitation amplitude that grows with flow);
 * ``flow_slopes``: added to parameters as ``s (Q / flow_ref_gpm - 1)`` at each event's flow
-  (a phase that drifts with flow); applied after ``theta0``;
+  (a phase that drifts with flow: a slope on ``theta0`` adds to the phase at rest); applied
+  after ``theta0``;
 * ``theta0``: the excitation phase at rest (rad), which MODEL.md shows the published lengths
-  cannot fix; it sets ``psi`` so that ``beta (x2 - x3)_rest + psi = theta0`` in the changed
-  model;
+  cannot fix: the core parameter ``theta0``, held whatever the other changes do to the rest
+  state;
 * ``measurement``: what happens to a sensor's true acceleration before its recorded chain.
 """
 
@@ -32,9 +33,10 @@ from typing import Any
 
 import numpy as np
 
+from vadsim.model import presets as _presets
 from vadsim.model.settings import ExtraSpec, RunSettings
 
-__all__ = ["FLOW_REF_GPM", "Measurement", "ModelChange", "psi_for_theta0", "rest_phase"]
+__all__ = ["FLOW_REF_GPM", "Measurement", "ModelChange", "rest_phase"]
 
 FLOW_REF_GPM = 400.0
 """Reference flow of flow powers: ``x (Q / 400)^p`` leaves the parameter unchanged at
@@ -45,21 +47,10 @@ Measurement = Callable[[str, np.ndarray, float], np.ndarray]
 """``measurement(sensor_name, a_g, fine_rate_hz) -> a_g`` on the solver's fine grid."""
 
 
-def _rest_gap_m(settings: RunSettings) -> float:
-    """``(x2 - x3)`` at rest in metres: ``(L3 - LI - LOn) l0 - wob / kOn`` (MODEL.md, the run)."""
-    p = settings.param
-    return (p("L3") - p("LI") - p("LOn")) * p("l0") - p("wob") / p("kOn")
-
-
 def rest_phase(settings: RunSettings) -> float:
-    """The excitation phase at rest, ``theta0 = beta (x2 - x3)_rest + psi`` mod pi (rad)."""
-    return float((settings.param("beta") * _rest_gap_m(settings) + settings.param("psi"))
-                 % math.pi)
-
-
-def psi_for_theta0(settings: RunSettings, theta0: float) -> float:
-    """The ``psi`` that gives the excitation phase at rest ``theta0`` in these settings."""
-    return float(theta0 - settings.param("beta") * _rest_gap_m(settings))
+    """The excitation phase at rest ``theta0`` of these settings, mod pi (rad): the preset's
+    (or an override's) ``theta0``, or ``beta (x2 - x3)_rest + psi`` when it is unset."""
+    return float(_presets.rest_phase(settings.params()) % math.pi)
 
 
 def _compose(first: Measurement | None, second: Measurement | None) -> Measurement | None:
@@ -162,11 +153,11 @@ class ModelChange:
         if values:
             out = out.with_changes(overrides=values)
         if self.theta0 is not None:
-            out = out.with_changes(overrides={"psi": psi_for_theta0(out, self.theta0)})
+            out = out.with_changes(overrides={"theta0": float(self.theta0)})
         if per_flow and self.flow_slopes:
             assert flow_gpm is not None
             x = flow_gpm / self.flow_ref_gpm - 1.0
-            out = out.with_changes(overrides={k: out.param(k) + v * x
+            out = out.with_changes(overrides={k: _current(out, k) + v * x
                                               for k, v in self.flow_slopes.items() if v})
         return out
 
@@ -185,6 +176,15 @@ class ModelChange:
         if self.measurement is not None:
             out["measurement"] = True
         return out
+
+
+def _current(settings: RunSettings, name: str) -> float:
+    """A parameter's value, with an unset phase at rest read as the one ``psi`` gives (a
+    slope on it must move the phase, not nan)."""
+    value = settings.param(name)
+    if name == "theta0" and math.isnan(value):
+        value = _presets.rest_phase(settings.params())
+    return value
 
 
 def change_from(mapping: Mapping[str, Any] | None) -> ModelChange:

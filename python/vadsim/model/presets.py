@@ -7,6 +7,14 @@ source of truth) plus those constants, so every layer builds the same model from
 
 Units are those of MODEL.md: masses in m*, stiffness in N/m per kg of m*, forces in N/kg,
 lengths in units of ``l0`` (metres = L * l0).
+
+Two constants the published numbers cannot fix (MODEL.md, last section) are parameters of
+their own: the excitation phase at rest ``theta0`` (rad) and the anvil-spring gap ``L_gap``
+(l0). Every built-in preset sets ``theta0`` to the value its ``l0`` gives (so its runs are the
+ones ``psi`` gives, bit for bit) and from then on holds it: changing ``l0`` changes the
+lengths and the waveform's scale, not the phase (no 8.3 mm phase aliases in a calibration).
+``L_gap`` is unset (nan: the gap Table 2.1's lengths give) unless a preset or an override
+sets it. ``theta0 = nan`` returns to the dissertation's parameterisation through ``psi``.
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ from vadsim.data import table_2_1
 
 __all__ = [
     "KLBF_N",
+    "OPTIONAL_PARAMS",
     "PARAM_ALIASES",
     "canonical_name",
     "PRESETS",
@@ -36,6 +45,7 @@ __all__ = [
     "param_ranges",
     "param_table",
     "preset_names",
+    "rest_phase",
 ]
 
 KLBF_N = 4448.2216152605
@@ -61,6 +71,12 @@ def param_ranges() -> dict[str, tuple[str, float, float]]:
     The core enforces them (``Params.validate``); they are here to be read."""
     return {row[0]: (row[3], float(row[4]), float(row[5])) for row in _core.param_table()}
 
+
+OPTIONAL_PARAMS = ("theta0", "L_gap")
+"""Parameters that may be nan (unset): each is then derived from the others (``theta0`` from
+``psi``, ``L_gap`` from ``LS``); set, it overrides the one it is derived from."""
+
+_DERIVED_FROM = {"theta0": "psi", "L_gap": "LS"}
 
 PARAM_ALIASES: dict[str, str] = {"wob_n_per_kg": "wob"}
 """Names that carry their unit, accepted wherever a parameter is named. The core's ``wob`` is
@@ -109,14 +125,25 @@ class Preset:
     note: str = ""
 
     @property
+    def theta0(self) -> float:
+        """The excitation phase at rest (rad) this preset's runs use."""
+        return rest_phase(self)
+
+    @property
+    def gap(self) -> float:
+        """The anvil-spring gap (l0): ``L_gap`` if set, else ``L3 - (L2 + LS + LI + LOn)``."""
+        return float(make_params(self).gap())
+
+    @property
     def m_ref_kg(self) -> float:
         """The reference mass m* (kg): multiply N/kg by it to get newtons."""
         return self.wob_klbf * KLBF_N / self.params["wob"]
 
     def with_overrides(self, **overrides: float) -> Preset:
         """A copy with some parameters replaced (names checked, values validated)."""
-        merged = dict(self.params)
-        merged.update(_checked_overrides(overrides))
+        changes = _checked_overrides(overrides)
+        merged = {**self.params, **changes}
+        _check_derived(merged, changes)
         make_params(merged, law=self.law)  # validate now, not at the first run
         return replace(self, params=merged)
 
@@ -162,7 +189,7 @@ def _build_presets() -> dict[str, Preset]:
         "l0 = 0.642533 m and wob = 653.934 N/kg (m* = 27.2 kg for 4 klbf), calibrated against "
         "the dissertation's simulated 7in CDE peaks and regime boundaries (docs/CALIBRATION.md)."
     )
-    return {
+    presets = {
         "7in-cde": Preset("7in-cde", "7in", "CDE", seven, 4.0, note=note7),
         "7in-rc": Preset(
             "7in-rc", "7in", "RC", {**seven, "m1": table["7in"]["m1_RC"]}, 4.0, note=note7
@@ -172,12 +199,32 @@ def _build_presets() -> dict[str, Preset]:
         "7in-rc-cal": Preset("7in-rc-cal", "7in", "RC",
                              {**seven_cal, "m1": table["7in"]["m1_RC"]}, 4.0, note=note7cal),
     }
+    # Each preset's theta0 is the one its l0 and psi give (MODEL.md: 2.264 mod pi for l0 =
+    # 0.7 m, 2.506 for the calibrated 0.6425 m), held from here on; L_gap stays unset (not in
+    # params: a nan would make equal presets compare unequal).
+    return {name: replace(pr, params={**pr.params, "theta0": rest_phase(pr)})
+            for name, pr in presets.items()}
 
 
-PRESETS: dict[str, Preset] = _build_presets()
-"""The built-in presets by name."""
 
 _ALIASES = {"7in": "7in-cde", "9.5in": "9.5in-pdc", "7in-CDE": "7in-cde", "7in-RC": "7in-rc"}
+
+
+def rest_phase(source: str | Preset | Mapping[str, float] | _core.Params) -> float:
+    """The excitation phase at rest ``theta0`` (rad) a run with these parameters uses.
+
+    ``theta0`` if it is set, else ``beta (x2 - x3)_rest + psi`` reduced to ``[0, 2 pi)``
+    (MODEL.md); ``theta0`` and ``theta0 + pi`` give the same steady state, half an excitation
+    cycle apart. Setting ``theta0`` to this value gives the same runs bit for bit.
+
+    Examples
+    --------
+    >>> round(rest_phase("7in-cde") % math.pi, 3)
+    2.264
+    """
+    if isinstance(source, Preset) and not math.isnan(source.params.get("theta0", math.nan)):
+        return float(source.params["theta0"])
+    return float(_core.Model(make_params(source)).rest_phase)
 
 
 def preset_names() -> list[str]:
@@ -240,7 +287,9 @@ def load_preset_file(path: str | os.PathLike[str]) -> Preset:
     if not isinstance(params, dict):
         raise ValueError(f"preset file {path}: [params] must be a table")
     try:
-        merged = {**base.params, **_checked_overrides(params)}
+        changes = _checked_overrides(params)
+        merged = {**base.params, **changes}
+        _check_derived(merged, changes)
         law = doc.get("law", base.law)
         make_params(merged, law=law)
         wob_klbf = float(doc.get("wob_klbf", base.wob_klbf))
@@ -265,9 +314,21 @@ def _checked_overrides(overrides: Mapping[str, Any]) -> dict[str, float]:
             out[key] = float(value)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"parameter {key} = {value!r} is not a number") from exc
-        if math.isnan(out[key]):
+        if math.isnan(out[key]) and key not in OPTIONAL_PARAMS:
             raise ValueError(f"parameter {key} = nan must be finite")
     return out
+
+
+def _check_derived(values: Mapping[str, float], changed: Mapping[str, float]) -> None:
+    """A change to ``psi`` or ``LS`` while ``theta0`` or ``L_gap`` is set would do nothing:
+    say so instead of running the unchanged model."""
+    for held, derived in _DERIVED_FROM.items():
+        if (derived in changed and held not in changed
+                and not math.isnan(values.get(held, math.nan))):
+            raise ValueError(
+                f"parameter {derived} = {changed[derived]!r} has no effect while {held} = "
+                f"{values[held]!r} is set ({held} overrides it): change {held} instead, or set "
+                f"{held}=nan to derive it from {derived}")
 
 
 def make_params(
@@ -304,11 +365,15 @@ def make_params(
             values = dict(source.params)
             law = law or source.law
         else:
-            values = {**PRESETS["7in-cde"].params, **_checked_overrides(source)}
+            given = _checked_overrides(source)
+            values = {**PRESETS["7in-cde"].params, **given}
+            _check_derived(values, given)
         p = _core.Params()
         for key, value in values.items():
             p.set(key, value)
-    for key, value in _checked_overrides(overrides or {}).items():
+    changes = _checked_overrides(overrides or {})
+    _check_derived({n: p.get(n) for n in OPTIONAL_PARAMS} | changes, changes)
+    for key, value in changes.items():
         p.set(key, value)
     if law is not None:
         if law not in LAWS:
@@ -316,3 +381,8 @@ def make_params(
         p.law = LAWS[law]
     p.validate()
     return p
+
+
+# Built last: a preset's theta0 is computed by the functions above.
+PRESETS: dict[str, Preset] = _build_presets()
+"""The built-in presets by name."""

@@ -19,7 +19,13 @@ from typing import Any
 import numpy as np
 
 from vadsim import _core
-from vadsim.model.presets import Preset, canonical_name, get_preset
+from vadsim.model.presets import (
+    OPTIONAL_PARAMS,
+    Preset,
+    canonical_name,
+    get_preset,
+    make_params,
+)
 from vadsim.model.simulate import SimulationResult, extra_force, simulate
 
 __all__ = ["ExtraSpec", "RunSettings", "excitation_hz"]
@@ -128,8 +134,17 @@ class RunSettings:
         return replace(self, **changes)
 
     def param(self, name: str) -> float:
-        """A parameter's value in these settings (the override, else the preset's)."""
-        return float(self.overrides.get(name, self.preset.params[name]))
+        """A parameter's value in these settings (the override, else the preset's; nan for an
+        optional one neither sets, e.g. ``L_gap``)."""
+        if name in self.overrides:
+            return float(self.overrides[name])
+        if name in OPTIONAL_PARAMS:
+            return float(self.preset.params.get(name, math.nan))
+        return float(self.preset.params[name])
+
+    def params(self) -> _core.Params:
+        """The core parameters of these settings (preset, overrides and law; validated)."""
+        return make_params(self.preset, self.overrides, law=self.law)
 
     def f_exc_hz(self, flow_gpm: float | np.ndarray) -> Any:
         """Excitation frequency (Hz) at ``flow_gpm``."""

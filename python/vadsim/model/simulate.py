@@ -19,7 +19,7 @@ import pandas as pd
 
 from vadsim import _core
 from vadsim._html import key_value_table
-from vadsim.model.presets import Preset, get_preset, make_params
+from vadsim.model.presets import OPTIONAL_PARAMS, Preset, get_preset, make_params
 from vadsim.model.regimes import regime_name, scenario
 
 __all__ = [
@@ -483,7 +483,9 @@ def _result(r: Any, params: _core.Params, preset: Preset | None, flow: float, cy
     values = params.__getstate__()
     return SimulationResult(
         preset=preset.name if preset else None,
-        params={k: v for k, v in values.items() if k != "law"},
+        # an unset optional parameter (nan) is left out: it has no value, and nan != nan
+        params={k: v for k, v in values.items() if k != "law" and not (
+            k in OPTIONAL_PARAMS and math.isnan(v))},
         flow_gpm=flow,
         f_exc_hz=r.f_exc_hz,
         cycles=float(cycles),

@@ -173,7 +173,8 @@ def design_overrides(
     base
         The parameters the values apply to (a preset's ``params`` merged with overrides).
     values
-        ``{name: value}``; ``gap_ratio`` scales the gap L3 - (L2 + LS + LI + LOn), ``gap``
+        ``{name: value}``; ``gap_ratio`` scales the gap (``L_gap`` if set, else
+        L3 - (L2 + LS + LI + LOn)), ``gap``
         sets it (in l0); every other name is a Table 2.1 parameter.
     gap_via
         Which length realises a gap change (see :data:`GAP_REALISATIONS`).
@@ -181,13 +182,18 @@ def design_overrides(
     if gap_via not in GAP_REALISATIONS:
         raise ValueError(f"gap_via = {gap_via!r} must be one of {', '.join(GAP_REALISATIONS)}")
     out: dict[str, float] = {}
-    gap0 = base["L3"] - (base["L2"] + base["LS"] + base["LI"] + base["LOn"])
+    held = not math.isnan(base.get("L_gap", math.nan))  # L_gap set: LS follows from it
+    gap0 = base["L_gap"] if held else base["L3"] - (base["L2"] + base["LS"] + base["LI"]
+                                                    + base["LOn"])
     for name, value in values.items():
         if name in DERIVED_PARAMETERS:
             target = gap0 * value if name == "gap_ratio" else value
             delta = target - gap0
+            if held:
+                out["L_gap"] = target  # and the spring's end stays unless it realises it
             if gap_via == "spring":
-                out["LS"] = base["LS"] - delta
+                if not held:
+                    out["LS"] = base["LS"] - delta
             elif gap_via == "anvil":
                 out["L2"] = base["L2"] - delta
             else:
