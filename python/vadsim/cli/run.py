@@ -7,8 +7,8 @@ machinery (xarray, dask), so a single run starts quickly.
 from __future__ import annotations
 
 import argparse
-import math
 import json
+import math
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor

@@ -1,5 +1,6 @@
 """Commands over many runs: ``sweep`` (flow axis), ``map`` (flow x parameters), ``design``
-(the dissertation's design studies and an optimiser) and ``thesis`` (the 7in CDE check).
+(the dissertation's design studies and an optimiser), ``thesis`` (every published number
+against vadsim's, REPRODUCTION.md) and ``constants`` (the scan of theta0 and the gap).
 
 Why this module exists: these commands share the flow axis, the resumable store, the NetCDF
 output and the figures; the study code itself lives in ``vadsim.studies``. The heavy modules
@@ -37,7 +38,8 @@ _MODES = ["independent", "continuation"]
 
 
 def add_parsers(sub: Subparsers, parents: Parents) -> None:
-    """Add ``sweep``, ``map``, ``design`` and ``thesis`` to the ``vadsim`` sub-commands."""
+    """Add ``sweep``, ``map``, ``design``, ``thesis`` and ``constants`` to the ``vadsim``
+    sub-commands."""
     sw = sub.add_parser(
         "sweep", help="flow sweep: labels at every flow, regimes along flow, NetCDF",
         description="Run the model at every flow of an axis (in parallel, resumable with "
@@ -50,13 +52,54 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
     _add_map(sub, parents)
     _add_design(sub, parents)
     th = sub.add_parser(
-        "thesis", help="compare the 7in CDE flow sweep with the dissertation's regimes and peaks",
+        "thesis", help="every number the dissertation publishes, vadsim's value, and why a "
+        "miss is a miss (REPRODUCTION.md)",
+        description="Run what the dissertation's published numbers need (the 7in CDE and RC "
+        "flow sweeps, the 9.5in events, the design studies) for the reference preset and "
+        "the thesis preset, and list each published number once with vadsim's values, the "
+        "tolerance, a status and, for each miss, its measured reason (from a constants scan, "
+        "--scan).",
+        epilog="example: vadsim constants --out scan/ && vadsim thesis --scan scan/ --out "
+        "repro/ (the report alone: about 2 min on 2 cores)",
         parents=[parents.length, *parents.execution],
     )
-    th.add_argument("--mode", default="independent", choices=_MODES)
-    th.add_argument("--out", default=None, help="save the sweep (NetCDF)")
+    th.add_argument("--reference", default="7in-cde",
+                    help="the reference 7in CDE preset (default 7in-cde)")
+    th.add_argument("--thesis-preset", default="7in-cde-thesis",
+                    help="the preset with the scan's constants (default 7in-cde-thesis; "
+                    "'none' to leave it out)")
+    th.add_argument("--scan", default=None, metavar="DIR",
+                    help="a vadsim constants output folder: the reasons of the misses are "
+                    "measured on its scores, its maps go into the report")
+    th.add_argument("--out", default=None, metavar="DIR",
+                    help="write REPRODUCTION.md, reproduction.csv and the figures there")
     th.set_defaults(func=_cmd_thesis)
+    _add_constants(sub, parents)
 
+
+def _add_constants(sub: Subparsers, parents: Parents) -> None:
+    co = sub.add_parser(
+        "constants", help="scan theta0 and the gap against every published target (maps)",
+        description="The excitation phase at rest theta0 and the anvil-spring gap are not "
+        "fixed by the published lengths (MODEL.md). Sweep flow over a grid of both, score the "
+        "regime bands, the CDE and RC peaks and the design studies' J* ratios at each point, "
+        "and write the maps, the scores and the best point (the *-thesis presets' constants).",
+        epilog="example: vadsim constants --out scan/ (about 20 min on 2 cores); "
+        "vadsim constants --theta0-steps 12 --gap 0.8 1.2 0.1 --no-designs --out quick/",
+        parents=[parents.length, *parents.execution],
+    )
+    co.add_argument("preset", nargs="?", default=DEFAULT_PRESET,
+                    help=f"the CDE preset whose constants are scanned (default {DEFAULT_PRESET})")
+    co.add_argument("--theta0-steps", type=int, default=24,
+                    help="phases at rest over [0, pi) (default 24: 0.13 rad apart)")
+    co.add_argument("--gap", type=float, nargs=3, metavar=("FROM", "TO", "STEP"),
+                    default=[0.6, 1.4, 0.1], help="gap ratios (default 0.6 1.4 0.1)")
+    co.add_argument("--design-every", type=int, default=2,
+                    help="design sweeps on every n-th theta0 and gap (default 2)")
+    co.add_argument("--no-designs", action="store_true", help="skip the J* ratio targets")
+    co.add_argument("--out", required=True, help="folder for scan.nc, scores.csv, "
+                    "summary.csv, best.json, constants-maps.png, target-maps.png")
+    co.set_defaults(func=_cmd_constants)
 
 def _grid_parents(parents: Parents) -> list[argparse.ArgumentParser]:
     return [parents.length, parents.overrides, parents.load, *parents.execution]
@@ -336,20 +379,77 @@ def _print_design(res: Any) -> None:
     print(f"  max J* {res.j_ratio:+.0%}, operating range {res.range_ratio:+.0%}")
 
 
-def _cmd_thesis(args: argparse.Namespace) -> int:
-    from vadsim.studies import thesis
-    from vadsim.studies.sweep import sweep
+def _cmd_constants(args: argparse.Namespace) -> int:
+    import json
+    import math
+    from pathlib import Path
 
-    ds = sweep("7in-cde", arange(200, 650, 10, flag="--flows"), cycles=args.cycles,
-               analyse_cycles=args.analyse, mode=args.mode, workers=args.workers,
-               progress=not args.quiet)
+    from vadsim.plots.constants import constants_maps, target_maps
+    from vadsim.studies.constants import best_constants, scan_constants
+
+    if args.theta0_steps < 1:
+        raise ValueError(f"--theta0-steps = {args.theta0_steps} must be >= 1")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    scan = scan_constants(
+        args.preset, np.linspace(0.0, math.pi, args.theta0_steps, endpoint=False),
+        np.round(arange(*args.gap, flag="--gap"), 10), design_every=args.design_every,
+        designs=not args.no_designs, cycles=args.cycles, analyse_cycles=args.analyse,
+        workers=args.workers, progress=not args.quiet)
+    best = best_constants(scan)
+    scan.to_netcdf(str(out / "scan.nc"))
+    scan.scores.to_csv(out / "scores.csv", index=False)
+    scan.summary().to_csv(out / "summary.csv", index=False)
+    (out / "best.json").write_text(json.dumps(
+        {**best, "seconds": round(time.perf_counter() - t0, 1), "settings": scan.settings},
+        indent=1, default=str) + "\n")
+    constants_maps(scan.scores, best, path=out / "constants-maps.png")
+    target_maps(scan.scores, best, path=out / "target-maps.png")
     with pandas_display():
-        print("Impact regimes of the 7in CDE flow sweep vs dissertation section 4.1:")
-        print(thesis.compare_regimes(ds).to_string(index=False))
-        print("\nMean x1 peaks (full resolution) vs the dissertation's simulated peaks:")
-        print(thesis.compare_peaks(ds).round(3).to_string(index=False))
-    k = int(np.nanargmax(ds.j_pos.values))
-    print(f"\nmax J* {float(ds.j_pos[k]):.2f} N/kg at {float(ds.flow_gpm[k]):.0f} gal/min, "
-          f"scenario {int(ds.scenario[k])}")
-    _finish_dataset(ds, args)
+        print(scan.summary().head(10).round(3).to_string(index=False))
+    print(f"\nbest: theta0 = {best['theta0']:.4f} rad, gap x {best['gap_ratio']:.2f}: "
+          f"{best['met']} of {best['of']} targets ({', '.join(best['groups'])})")
+    for m in best["missed"]:
+        print(f"  missed {m['target']}: {m['value']} (published {m['published']})")
+    print(f"wrote {out}/ in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+def _cmd_thesis(args: argparse.Namespace) -> int:
+    import json
+    from pathlib import Path
+
+    import pandas as pd
+
+    from vadsim.studies.reproduction import reproduce
+
+    scan = best = None
+    if args.scan is not None:
+        folder = Path(args.scan)
+        if not (folder / "scores.csv").is_file():
+            raise ValueError(f"--scan {folder}: no scores.csv there (write one with "
+                             "vadsim constants --out DIR)")
+        scan = pd.read_csv(folder / "scores.csv")
+        if (folder / "best.json").is_file():
+            best = json.loads((folder / "best.json").read_text())
+    thesis = None if args.thesis_preset == "none" else args.thesis_preset
+    rep = reproduce(args.reference, thesis, scan, cycles=args.cycles,
+                    analyse_cycles=args.analyse, workers=args.workers,
+                    progress=not args.quiet)
+    with pandas_display():
+        print(rep.counts().to_string())
+        missed = rep.table[(rep.table[[f"status_{lab}" for lab in rep.presets]] == "missed")
+                           .any(axis=1)]
+        cols = ["quantity", "published", *rep.presets, "reason"]
+        print(f"\n{len(missed)} number(s) missed by at least one preset:")
+        print(missed[cols].to_string(index=False, max_colwidth=70))
+    if args.out:
+        from vadsim.report.reproduction import write_reproduction_report
+
+        path = write_reproduction_report(
+            rep, args.out, args.scan, best,
+            command="vadsim thesis" + (f" --scan {args.scan}" if args.scan else "")
+            + f" --out {args.out}")
+        print(f"\nwrote {path}")
     return 0
