@@ -167,16 +167,22 @@ def _add_design(sub: Subparsers, parents: Parents) -> None:
         "(parametric.csv) with J* maximum and operating range per value. recommended: the "
         "dissertation's recommended design vs the original (Fig. 5.7). optimise: "
         "differential evolution over kS, gap ratio and Fo within the published ranges, "
-        "maximising J* and the operating range (J* within 10 %% of its maximum).",
+        "maximising J* and the operating range (J* within 10 %% of its maximum). robust: the "
+        "original, the dissertation's recommendation and a robust optimum (the mean score "
+        "over a sample of the plausible theta0 and gap) compared by the mean and worst case "
+        "of max J* and operating range over that sample.",
         parents=[parents.length, *parents.execution],
     )
-    de.add_argument("study", choices=["spring", "gap", "force", "recommended", "optimise"])
+    de.add_argument("study", choices=["spring", "gap", "force", "recommended", "optimise",
+                                      "robust"])
     de.add_argument("preset", nargs="?", default=DEFAULT_PRESET)
     de.add_argument("--steps", type=int, default=21, help="parameter values of a study (21)")
     _add_gap_via(de)
     de.add_argument("--popsize", type=int, default=6, help="optimise: population factor (6)")
     de.add_argument("--maxiter", type=int, default=8, help="optimise: generations (8)")
     de.add_argument("--seed", type=int, default=1, help="optimise: random seed (1)")
+    de.add_argument("--sample", type=int, default=5, choices=[1, 5, 9],
+                    help="robust: points of the plausible (theta0, gap) region (5)")
     de.add_argument("--store", default=None, help="study: resumable chunk folder")
     de.add_argument("--out", default=None, help="save the map (NetCDF) or the designs (CSV)")
     _add_plot_option(de)
@@ -286,6 +292,8 @@ def _cmd_design(args: argparse.Namespace) -> int:
 
     if args.study in design.STUDIES:
         return _design_study(args)
+    if args.study == "robust":
+        return _design_robust(args)
     if args.study == "recommended":
         res = design.compare_designs(
             design.RECOMMENDED, args.preset, gap_via=args.gap_via, workers=args.workers,
@@ -299,6 +307,41 @@ def _cmd_design(args: argparse.Namespace) -> int:
             print(f"figure {args.plot}")
         return 0
     return _design_optimise(args)
+
+
+def _design_robust(args: argparse.Namespace) -> int:
+    from vadsim.studies.design import RECOMMENDED
+    from vadsim.studies.robust import (
+        GAP_SPREAD,
+        THETA0_SPREAD,
+        constants_sample,
+        robust_compare,
+        robust_optimise,
+    )
+
+    t0 = time.perf_counter()
+
+    def report(n: int, score: float, d: dict) -> None:
+        if not args.quiet and n % 10 == 0:
+            print(f"  {n} designs, last score {score:.3f}", flush=True)
+
+    best, history = robust_optimise(args.preset, args.sample, popsize=args.popsize,
+                                    maxiter=args.maxiter, seed=args.seed, workers=args.workers,
+                                    callback=report)
+    res = robust_compare({"recommended": RECOMMENDED, "robust optimum": best}, args.preset,
+                         constants_sample(args.preset, args.sample), cycles=args.cycles,
+                         analyse_cycles=args.analyse, workers=args.workers, detail="map")
+    print(f"{len(res.sample)} constants: theta0 +-{THETA0_SPREAD} rad, gap x(1 +-{GAP_SPREAD}) "
+          f"around {args.preset}'s; robust objective: mean over them of J*max/J*max0 + "
+          "(width + dq)/(width0 + dq) (dq the flow step), each against the original at the "
+          "same constants")
+    with pandas_display():
+        print(res.table.T.round(3).to_string())
+    print(f"({len(history)} designs searched; {time.perf_counter() - t0:.0f} s)")
+    if args.out:
+        res.table.to_csv(args.out)
+        print(f"wrote {args.out}")
+    return 0
 
 
 def _design_study(args: argparse.Namespace) -> int:
