@@ -61,6 +61,7 @@ from vadsim.fit.hypothesis import (
     HypothesisFit,
     Point,
     Stage,
+    aicc,
     fit_hypothesis,
 )
 from vadsim.fit.locate import Mismatch, locate
@@ -641,6 +642,8 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
         fits = sorted(fits, key=lambda f: (f.probe, _vanishes(f), f.score))
         if step == 0:
             solo = {f.keys[-1]: f for f in fits}
+        else:
+            bar = current = _rescored(current, fits, say)
         steps.append(fits)
         if not _passes(fits[0], bar, opts["min_delta"], opts["min_reduction"]):
             break
@@ -648,6 +651,41 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
         chosen_ids = set(current.ids)
         pool = [f.keys[-1] for f in fits[1:] if CANDIDATES[f.keys[-1]].id not in chosen_ids]
     return _Selection(steps, current if current is not base else None)
+
+
+def _rescored(current: HypothesisFit, fits: list[HypothesisFit],
+              say: Callable[[str], None]) -> HypothesisFit:
+    """The current model with the held-out score of a fit on top of it whose new candidate
+    vanished in the all-event fit and in every fold, where that score is better: each fold of
+    that fit then chose, by its training events alone, a point of the current model, so its
+    held-out score is one of the current model, found by a wider search (measured: the 6-event
+    hydraulic campaign, hydraulic alone 2.64, hydraulic + friction at 0 N/kg in every fold 0.31;
+    with the bar at 2.64 a contact law then passed it and was reported as a second effect)."""
+    better = [f for f in fits if not f.probe and _vanishes(f) and _vanishes_in_folds(f)
+              and f.heldout_rms < current.heldout_rms]
+    if not better:
+        return current
+    wider = min(better, key=lambda f: f.heldout_rms)
+    say(f"{wider.key} vanished in every fold and held out better ({wider.heldout_rms:.3f} < "
+        f"{current.heldout_rms:.3f}): {current.key} takes that score")
+    own = {p.name for p in current.hypothesis.specs}
+    return replace(current, heldout_rms=wider.heldout_rms,
+                   heldout_rms_lofo=wider.heldout_rms_lofo,
+                   heldout_rms_block=wider.heldout_rms_block,
+                   score=aicc(wider.n_heldout, wider.heldout_rms ** 2, current.k),
+                   heldout=wider.heldout, heldout_sim=wider.heldout_sim,
+                   fold_values={f: {n: v for n, v in fv.items() if n in own}
+                                for f, fv in wider.fold_values.items()})
+
+
+def _vanishes_in_folds(fit: HypothesisFit) -> bool:
+    """Whether the last-added candidate sits at its null in every fold's chosen point."""
+    last = CANDIDATES[fit.keys[-1]]
+    nulls = {p.name: p.null for p in last.params if p.null is not None}
+    names = [p.name for p in fit.hypothesis.specs]
+    if not nulls or len(set(names)) != len(names) or not fit.fold_values:
+        return False
+    return all(fv.get(n) == v for fv in fit.fold_values.values() for n, v in nulls.items())
 
 
 def _unexplained(final: HypothesisFit, flows: Mapping[str, float], max_rms: float

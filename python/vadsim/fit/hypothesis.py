@@ -301,6 +301,7 @@ class HypothesisFit:
     n_evals: int = 0
     n_points: int = 0
     rss_start: float = math.nan
+    n_heldout: int = 0  # held-out squared residuals behind heldout_rms and score
     """The training cost at the start point (what the fit improved on)."""
     top_points: tuple[Point, ...] = ()
     """The few points with the lowest training cost (starts for a finer fit)."""
@@ -511,7 +512,7 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
         score=aicc(int(all_sq.size), mse, k), heldout=h.held, heldout_sim=h.held_sim,
         fold_values=h.fold_values, n_points=len(points),
         n_evals=ev.n_evals - n0 + (coarse[0].n_evals - c0 if coarse is not None else 0),
-        rss_start=costs.rss(start),
+        rss_start=costs.rss(start), n_heldout=int(all_sq.size),
         top_points=tuple(points[i] for i in np.argsort(event_rss.sum(axis=1))[:TOP_POINTS]))
     progress(f"{fit.key}: held-out RMS {fit.heldout_rms:.3f}, score {fit.score:.1f}")
     return fit
