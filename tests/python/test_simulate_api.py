@@ -607,7 +607,7 @@ def test_every_preset_runs(name, flow):
 
 def test_preset_lookup_and_rc_differs_only_in_m1():
     assert vadsim.preset_names() == ["7in-cde", "7in-rc", "9.5in-pdc", "7in-cde-cal",
-                                     "7in-rc-cal"]
+                                     "7in-rc-cal", "7in-cde-thesis", "7in-rc-thesis"]
     # the calibrated pair differs only in l0, wob and the phase at rest that its l0 gives
     cal = vadsim.PRESETS["7in-cde-cal"].params
     assert {k for k in cal if cal[k] != vadsim.PRESETS["7in-cde"].params[k]} == {

@@ -84,14 +84,18 @@ def _add_constants(sub: Subparsers, parents: Parents) -> None:
         "fixed by the published lengths (MODEL.md). Sweep flow over a grid of both, score the "
         "regime bands, the CDE and RC peaks and the design studies' J* ratios at each point, "
         "and write the maps, the scores and the best point (the *-thesis presets' constants).",
-        epilog="example: vadsim constants --out scan/ (about 20 min on 2 cores); "
-        "vadsim constants --theta0-steps 12 --gap 0.8 1.2 0.1 --no-designs --out quick/",
+        epilog="example: vadsim constants --out scan/ (22 min on 2 cores); then around its "
+        "best point: vadsim constants --theta0 2.30 2.65 0.025 --gap 0.8 1.1 0.05 "
+        "--no-designs --out fine/ (7 min)",
         parents=[parents.length, *parents.execution],
     )
     co.add_argument("preset", nargs="?", default=DEFAULT_PRESET,
                     help=f"the CDE preset whose constants are scanned (default {DEFAULT_PRESET})")
-    co.add_argument("--theta0-steps", type=int, default=24,
+    th = co.add_mutually_exclusive_group()
+    th.add_argument("--theta0-steps", type=int, default=24,
                     help="phases at rest over [0, pi) (default 24: 0.13 rad apart)")
+    th.add_argument("--theta0", type=float, nargs=3, metavar=("FROM", "TO", "STEP"),
+                    help="phases at rest from-to-step instead (rad), to refine a region")
     co.add_argument("--gap", type=float, nargs=3, metavar=("FROM", "TO", "STEP"),
                     default=[0.6, 1.4, 0.1], help="gap ratios (default 0.6 1.4 0.1)")
     co.add_argument("--design-every", type=int, default=2,
@@ -430,16 +434,19 @@ def _cmd_constants(args: argparse.Namespace) -> int:
     from vadsim.plots.constants import constants_maps, target_maps
     from vadsim.studies.constants import best_constants, scan_constants
 
-    if args.theta0_steps < 1:
+    if args.theta0 is not None:
+        theta0 = np.round(arange(*args.theta0, flag="--theta0"), 10)
+    elif args.theta0_steps < 1:
         raise ValueError(f"--theta0-steps = {args.theta0_steps} must be >= 1")
+    else:
+        theta0 = np.linspace(0.0, math.pi, args.theta0_steps, endpoint=False)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     scan = scan_constants(
-        args.preset, np.linspace(0.0, math.pi, args.theta0_steps, endpoint=False),
-        np.round(arange(*args.gap, flag="--gap"), 10), design_every=args.design_every,
-        designs=not args.no_designs, cycles=args.cycles, analyse_cycles=args.analyse,
-        workers=args.workers, progress=not args.quiet)
+        args.preset, theta0, np.round(arange(*args.gap, flag="--gap"), 10),
+        design_every=args.design_every, designs=not args.no_designs, cycles=args.cycles,
+        analyse_cycles=args.analyse, workers=args.workers, progress=not args.quiet)
     best = best_constants(scan)
     scan.to_netcdf(str(out / "scan.nc"))
     scan.scores.to_csv(out / "scores.csv", index=False)

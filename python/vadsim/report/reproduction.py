@@ -16,6 +16,7 @@ from typing import Any
 
 import pandas as pd
 
+from vadsim.model.presets import get_preset
 from vadsim.plots import peaks_vs_flow
 from vadsim.report.render import render, write
 from vadsim.studies.reproduction import Reproduction
@@ -84,7 +85,8 @@ def write_reproduction_report(rep: Reproduction, folder: str | os.PathLike[str],
                 figures[f"scan: {png[:-4]}"] = f"reproduction/{png}"
     sections = [dict(title=title, what=what, table=_section_table(rep, source, key))
                 for title, source, key, what in _SECTIONS]
+    thesis_note = get_preset(rep.presets["thesis"]).note if "thesis" in rep.presets else ""
     text = render("reproduction.j2", fmt, "Reproduction", presets=rep.presets,
                   counts=rep.counts(), command=command, seconds=rep.seconds, best=best,
-                  figures=figures, sections=sections)
+                  figures=figures, sections=sections, thesis_note=thesis_note)
     return write(out, "REPRODUCTION", fmt, text)

@@ -243,8 +243,8 @@ def _event_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], pdc: xr.Dataset
         rows.append(_row(f"{eid}:operating_point", "field_events.csv",
                          f"{name}: excitation (Hz) at its flow and WOB {e.wob_klbf:g} klbf",
                          e.f_exc_hz, "Hz", f,
-                         {lab: "input" if abs(v - e.f_exc_hz) <= 0.05 else "missed"
-                          for lab, v in f.items()}, "0.05 Hz"))
+                         {lab: "input" if abs(v - e.f_exc_hz) <= 0.06 else "missed"
+                          for lab, v in f.items()}, "0.06 Hz (published to 0.1 Hz)"))
         peak = {lab: round(float(a.x1_peak_mean_g), 1) for lab, a in at.items()}
         rows.append(_row(f"{eid}:sim_peak_g", "field_events.csv", f"{name}: simulated peak",
                          e.sim_peak_g, "g", peak,
@@ -368,7 +368,8 @@ def _parametric_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], run_s: floa
                          f"{lo:g}-{hi:g}", "gal/min", vals,
                          {lab: "reproduced" if max(abs(m["range_from_gpm"] - lo),
                                                    abs(m["range_to_gpm"] - hi)) <= 10
-                          else "missed" for lab, m in metrics.items()}, "10 gal/min"))
+                          else "missed" for lab, m in metrics.items()}, "10 gal/min",
+                         scan_target="recommended_range"))
     rows += _force_edge_rows(sweeps, base)
     rows += _prose_rows(sweeps, base, run_s)
     return rows
@@ -384,7 +385,8 @@ def _force_edge_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]],
         rows.append(_row(f"parametric.csv:force:edge_{which.split()[0].lower()}",
                          "parametric.csv", f"regime 1 upper edge, {which}", pub, "Hz", vals,
                          {lab: "reproduced" if abs(v - pub) <= 1.1 else "missed"
-                          for lab, v in vals.items()}, "1.1 Hz (10 gal/min)"))
+                          for lab, v in vals.items()}, "1.1 Hz (10 gal/min)",
+                         scan_target="regime 1" if which == "nominal Fo" else "force_j"))
     return rows
 
 
@@ -405,7 +407,10 @@ def _prose_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[st
     rows.append(_row("parametric.csv:spring:peak_j", "parametric.csv",
                      "spring study: peak J* hardly changes (kS 39.37 -> 787.4)", "hardly",
                      "ratio", ks, {lab: "reproduced" if abs(v) <= 0.15 else "missed"
-                                   for lab, v in ks.items()}, "|change| <= 0.15"))
+                                   for lab, v in ks.items()}, "|change| <= 0.15",
+                     "not part of the constants scan: its sensitivity to theta0 and the gap is "
+                     "not measured; the reference and thesis presets differ only in theta0, "
+                     "and their values above show how much it moves this number"))
     gap = _metrics(sweeps, "gap")
     edge = {lab: f"{base[lab]['regime1_edge_gpm']:g} -> {gap[lab]['regime1_edge_gpm']:g}"
             for lab in labs}
@@ -421,7 +426,7 @@ def _prose_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[st
     rows.append(_row("parametric.csv:gap:best_hz", "parametric.csv",
                      "gap study: best J* at 30-34 Hz (gap x1.5)", "30-34", "Hz", best,
                      {lab: "reproduced" if 29.0 <= v <= 35.0 else "missed"
-                      for lab, v in best.items()}, "1 Hz"))
+                      for lab, v in best.items()}, "1 Hz", scan_target="gap_j"))
     rows += _kn_rows(sweeps, base)
     rows += _fixed_rows(labs, run_s)
     return rows
@@ -483,12 +488,13 @@ def scan_reasons(scores: pd.DataFrame) -> dict[str, str]:
     theta0 and the gap it is met, and which other targets it is never met together with.
 
     ``scores`` is :attr:`vadsim.studies.constants.ConstantScan.scores` (or its CSV)."""
-    ok = scores.pivot_table(index=["theta0", "gap_ratio"], columns="target", values="ok",
-                            aggfunc="first").astype(bool)
-    n = len(ok)
+    scored = scores.pivot_table(index=["theta0", "gap_ratio"], columns="target", values="ok",
+                                aggfunc="first")
+    ok = scored.fillna(False).astype(bool)  # a target not scored at a point is not met there
     out = {}
     for target in ok.columns:
         met = ok[target]
+        n = int(scored[target].notna().sum())  # the design targets: a coarser grid
         if not met.any():
             out[target] = (f"met at none of the {n} scan points (theta0 over [0, pi), gap "
                            f"{ok.index.get_level_values(1).min():g}-"
