@@ -53,3 +53,15 @@ def test_a_design_is_summarised_by_its_mean_and_worst_case_over_the_sample():
         t.loc["recommended", "j_max_mean"] * t.loc["recommended", "m_ref_kg"] / 1000.0)
     # the design differs from the original at every point (Fo x1.78 moves J*)
     assert (rec.j_max != rec.j_max0).all()
+
+
+def test_a_study_over_the_sample_has_one_row_per_value_and_none_at_its_nominal():
+    from vadsim.studies.robust import robust_study
+
+    t = robust_study("force", "7in-cde", 2, constants_sample("7in-cde", 5), FLOWS, **TINY)
+    assert list(t.index) == pytest.approx([133.54, 534.17])
+    assert (t.j_max_worst <= t.j_max_mean).all()
+    # a larger force gives more J* at every point of the sample (Fo x4 from the low end)
+    assert t.j_max_worst.iloc[1] > t.j_max_mean.iloc[0]
+    with pytest.raises(ValueError, match="unknown study"):
+        robust_study("mass", "7in-cde")

@@ -185,8 +185,10 @@ def _add_design(sub: Subparsers, parents: Parents) -> None:
     de.add_argument("--popsize", type=int, default=6, help="optimise: population factor (6)")
     de.add_argument("--maxiter", type=int, default=8, help="optimise: generations (8)")
     de.add_argument("--seed", type=int, default=1, help="optimise: random seed (1)")
-    de.add_argument("--sample", type=int, default=5, choices=[1, 5, 9],
-                    help="robust: points of the plausible (theta0, gap) region (5)")
+    de.add_argument("--sample", type=int, default=None, choices=[1, 5, 9],
+                    help="judge every design over this many points of the plausible "
+                    "(theta0, gap) region: mean and worst case (default: robust 5, the "
+                    "others at the preset's constants only)")
     de.add_argument("--store", default=None, help="study: resumable chunk folder")
     de.add_argument("--out", default=None, help="save the map (NetCDF) or the designs (CSV)")
     _add_plot_option(de)
@@ -298,6 +300,8 @@ def _cmd_design(args: argparse.Namespace) -> int:
         return _design_study(args)
     if args.study == "robust":
         return _design_robust(args)
+    if args.sample is not None and args.study != "optimise":
+        return _design_over_sample(args)
     if args.study == "recommended":
         res = design.compare_designs(
             design.RECOMMENDED, args.preset, gap_via=args.gap_via, workers=args.workers,
@@ -311,6 +315,28 @@ def _cmd_design(args: argparse.Namespace) -> int:
             print(f"figure {args.plot}")
         return 0
     return _design_optimise(args)
+
+
+def _design_over_sample(args: argparse.Namespace) -> int:
+    """A study or the recommended design, judged over the constants' sample."""
+    from vadsim.studies.design import RECOMMENDED
+    from vadsim.studies.robust import constants_sample, robust_compare, robust_study
+
+    sample = constants_sample(args.preset, args.sample)
+    kw = dict(cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers,
+              detail="map")
+    if args.study == "recommended":
+        table = robust_compare({"recommended": RECOMMENDED}, args.preset, sample, **kw).table
+    else:
+        table = robust_study(args.study, args.preset, args.steps, sample, **kw)
+    print(f"over {len(sample)} points of the plausible (theta0, gap) region of {args.preset}; "
+          "J* in N/kg (kN with the m* shown)")
+    with pandas_display():
+        print(table.round(3).to_string())
+    if args.out:
+        table.to_csv(args.out)
+        print(f"wrote {args.out}")
+    return 0
 
 
 def _design_robust(args: argparse.Namespace) -> int:
@@ -329,11 +355,12 @@ def _design_robust(args: argparse.Namespace) -> int:
         if not args.quiet and n % 10 == 0:
             print(f"  {n} designs, last score {score:.3f}", flush=True)
 
-    best, history = robust_optimise(args.preset, args.sample, popsize=args.popsize,
+    n_sample = args.sample or 5
+    best, history = robust_optimise(args.preset, n_sample, popsize=args.popsize,
                                     maxiter=args.maxiter, seed=args.seed, workers=args.workers,
                                     callback=report)
     res = robust_compare({"recommended": RECOMMENDED, "robust optimum": best}, args.preset,
-                         constants_sample(args.preset, args.sample), cycles=args.cycles,
+                         constants_sample(args.preset, n_sample), cycles=args.cycles,
                          analyse_cycles=args.analyse, workers=args.workers, detail="map")
     print(f"{len(res.sample)} constants: theta0 +-{THETA0_SPREAD} rad, gap x(1 +-{GAP_SPREAD}) "
           f"around {args.preset}'s; robust objective: mean over them of J*max/J*max0 + "

@@ -25,7 +25,7 @@ from vadsim.studies.design import STUDIES, design_metrics
 from vadsim.studies.sweep import sweep
 
 __all__ = ["THETA0_SPREAD", "GAP_SPREAD", "RobustResult", "constants_sample", "robust_compare",
-           "robust_metrics", "robust_optimise"]
+           "robust_metrics", "robust_optimise", "robust_study"]
 
 THETA0_SPREAD = 0.35
 """Half-width (rad) of theta0's plausible region around a preset's: what the 0.01 rounding of
@@ -147,6 +147,26 @@ def robust_compare(designs: Mapping[str, Mapping[str, float]], preset: str = "7i
                      **summarise(df, m_ref)})
     return RobustResult(pd.DataFrame(rows).set_index("design"), per, points,
                         dict(preset=preset, n_sample=len(points)), time.perf_counter() - t0)
+
+
+def robust_study(study: str, preset: str = "7in-cde", steps: int = 7,
+                 sample: Sequence[Mapping[str, float]] | None = None,
+                 flows: Sequence[float] | np.ndarray | None = None,
+                 **sweep_kwargs: Any) -> pd.DataFrame:
+    """A one-at-a-time study (``"spring"``, ``"gap"``, ``"force"``) judged over the sample:
+    per studied value, :func:`summarise` of :func:`robust_metrics` (mean and worst case of max
+    J* and of the operating range, and their changes from the original at each point)."""
+    if study not in STUDIES:
+        raise ValueError(f"unknown study {study!r}: choose one of {', '.join(STUDIES)}")
+    s = STUDIES[study]
+    points = [dict(p) for p in (sample or constants_sample(preset))]
+    base = robust_metrics({}, preset, points, flows, **sweep_kwargs)
+    rows = []
+    for v in s.values(steps):
+        pp = robust_metrics({s.parameter: float(v)}, preset, points, flows, baseline=base,
+                            **sweep_kwargs)
+        rows.append({s.parameter: float(v), **summarise(pp, get_preset(preset).m_ref_kg)})
+    return pd.DataFrame(rows).set_index(s.parameter)
 
 
 def robust_optimise(preset: str = "7in-cde", n_sample: int = 5,
