@@ -18,7 +18,7 @@ run = {} if FULL else {"cycles": 160, "analyse_cycles": 100}
 truth = candidates.CANDIDATES["hydraulic_force[anvil]"].change({"f_ref": 64.0, "n": 2.0})
 camp = synthetic.synthetic_campaign("7in-cde", (200, 300, 400, 500, 600, 650), change=truth,
                                     duration_s=8 if FULL else 3, seed=11, **run)
-offered = None if FULL else ["hydraulic_force", "anvil_friction", "sensor_chain"]
+offered = None if FULL else ["hydraulic_force", "anvil_friction"]
 d = diagnose.diagnose(camp, candidates=offered, phases=4 if FULL else 2, progress=False,
                       **run)
 print(d.summary())
