@@ -210,3 +210,13 @@ def test_blind_lists_classes_and_refuses_an_unknown_one(capsys, tmp_path):
     assert main(["blind", "--out", str(tmp_path / "x"), "--classes", "pair,foo"]) == 2
     assert "unknown blind class(es) foo" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_a_study_with_sample_is_judged_over_the_constants(tmp_path, capsys):
+    """``design force --sample N`` goes to the sample, not to the single-point study."""
+    out = tmp_path / "force.csv"
+    assert main(["design", "force", "--sample", "1", "--steps", "2", "--cycles", "20",
+                 "--analyse", "10", "--out", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "over 1 points of the plausible (theta0, gap) region" in text
+    assert "j_max_worst" in out.read_text() and out.read_text().count("\n") == 3

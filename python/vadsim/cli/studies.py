@@ -105,6 +105,7 @@ def _add_constants(sub: Subparsers, parents: Parents) -> None:
                     "summary.csv, best.json, constants-maps.png, target-maps.png")
     co.set_defaults(func=_cmd_constants)
 
+
 def _grid_parents(parents: Parents) -> list[argparse.ArgumentParser]:
     return [parents.length, parents.overrides, parents.load, *parents.execution]
 
@@ -296,12 +297,12 @@ def _cmd_map(args: argparse.Namespace) -> int:
 def _cmd_design(args: argparse.Namespace) -> int:
     from vadsim.studies import design
 
-    if args.study in design.STUDIES:
-        return _design_study(args)
     if args.study == "robust":
         return _design_robust(args)
     if args.sample is not None and args.study != "optimise":
         return _design_over_sample(args)
+    if args.study in design.STUDIES:
+        return _design_study(args)
     if args.study == "recommended":
         res = design.compare_designs(
             design.RECOMMENDED, args.preset, gap_via=args.gap_via, workers=args.workers,
