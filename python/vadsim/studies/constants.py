@@ -31,10 +31,11 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from vadsim.data import field_events, published_regimes
+from vadsim.data import field_events
 from vadsim.model.presets import get_preset
 from vadsim.studies.design import PUBLISHED, RECOMMENDED, STUDIES, operating_range
 from vadsim.studies.sweep import sweep
+from vadsim.studies.thesis import compare_peaks, compare_regimes
 
 __all__ = [
     "DESIGN_TARGETS",
@@ -221,40 +222,29 @@ def score_targets(cde: xr.Dataset, rc: xr.Dataset, designs: Mapping[str, xr.Data
 
 def band_scores(ds: xr.Dataset) -> list[dict[str, Any]]:
     """The five published regime bands scored on a flow sweep (rows of
-    :func:`score_targets` without the point)."""
-    q, sc = ds.flow_gpm.values, ds.scenario.values
-    runs, start = [], 0
-    for i in range(1, len(q) + 1):
-        if i == len(q) or sc[i] != sc[start]:
-            runs.append((int(sc[start]), float(q[start]), float(q[i - 1])))
-            start = i
+    :func:`score_targets` without the point), from :func:`~vadsim.studies.thesis.compare_regimes`:
+    the error is the larger edge miss, infinite for a band the sweep does not show."""
     out = []
-    for _, p in published_regimes().iterrows():
-        near = [r for r in runs if r[0] == p.scenario and r[2] >= p.flow_from_gpm - 10
-                and r[1] <= p.flow_to_gpm + 10]
-        if near:
-            best = max(near, key=lambda r: r[2] - r[1])
-            err = max(abs(best[1] - p.flow_from_gpm), abs(best[2] - p.flow_to_gpm))
-            value = f"{best[1]:g}-{best[2]:g}"
-        else:
-            err, value = math.inf, "absent"
-        out.append(dict(group="regime band", target=f"regime {int(p.scenario)}", value=value,
-                        published=f"{p.flow_from_gpm:g}-{p.flow_to_gpm:g}", error=err,
-                        tolerance=REGIME_TOL_GPM, ok=bool(err <= REGIME_TOL_GPM)))
+    for _, r in compare_regimes(ds, REGIME_TOL_GPM).iterrows():
+        absent = math.isnan(r.vadsim_from)
+        err = math.inf if absent else max(abs(r.d_from), abs(r.d_to))
+        out.append(dict(group="regime band", target=f"regime {int(r.scenario)}",
+                        value="absent" if absent else f"{r.vadsim_from:g}-{r.vadsim_to:g}",
+                        published=f"{r.published_from:g}-{r.published_to:g}", error=err,
+                        tolerance=REGIME_TOL_GPM, ok=bool(r.ok)))
     return out
 
 
 def peak_scores(ds: xr.Dataset, tool: str, bit: str) -> list[dict[str, Any]]:
-    """The dissertation's simulated peaks of ``tool``/``bit`` scored on a flow sweep."""
+    """The dissertation's simulated peaks of ``tool``/``bit`` scored on a flow sweep, from
+    :func:`~vadsim.studies.thesis.compare_peaks` (the error relative, infinite for no peak)."""
     out = []
-    for _, e in field_events(tool, bit).iterrows():
-        if e.flow_gpm not in ds.flow_gpm.values:
-            continue
-        v = float(ds.x1_peak_mean_g.sel(flow_gpm=e.flow_gpm))
-        err = abs(v / e.sim_peak_g - 1) if math.isfinite(v) else math.inf
-        out.append(dict(group=f"{bit} peak", target=f"{bit} {e.flow_gpm:g} gal/min",
-                        value=round(v, 1), published=float(e.sim_peak_g), error=err,
-                        tolerance=PEAK_TOL, ok=bool(err <= PEAK_TOL)))
+    for _, r in compare_peaks(ds, tool, bit, PEAK_TOL).iterrows():
+        v = float(r.vadsim_peak_g)
+        out.append(dict(group=f"{bit} peak", target=f"{bit} {r.flow_gpm:g} gal/min",
+                        value=round(v, 1), published=float(r.thesis_sim_peak_g),
+                        error=abs(r.rel_diff_sim) if math.isfinite(v) else math.inf,
+                        tolerance=PEAK_TOL, ok=bool(r.ok)))
     return out
 
 
