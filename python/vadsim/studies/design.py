@@ -38,6 +38,7 @@ __all__ = [
     "OptimisationResult",
     "compare_designs",
     "design_metrics",
+    "design_sweep",
     "one_at_a_time",
     "operating_range",
     "optimise",
@@ -221,8 +222,11 @@ def _design_overrides(design: Mapping[str, float]) -> tuple[dict[str, float], di
     return overrides, axes
 
 
-def _design_sweep(preset: str, flows: np.ndarray, design: Mapping[str, float], gap_via: str,
-                  **kw: Any) -> xr.Dataset:
+def design_sweep(preset: str, flows: np.ndarray, design: Mapping[str, float],
+                 gap_via: str = "spring", **kw: Any) -> xr.Dataset:
+    """A flow sweep of ``preset`` with ``design`` applied: parameters (any name, ``theta0``
+    included) as overrides, ``gap_ratio`` or ``gap`` realised by ``gap_via``; ``kw`` go to
+    :func:`vadsim.studies.sweep.sweep`."""
     overrides, axes = _design_overrides(design)
     ds = sweep(preset, flows, axes or None, overrides=overrides, gap_via=gap_via, **kw)
     for name in axes:
@@ -242,7 +246,7 @@ def compare_designs(
     Fig. 5.7: 200-650 gal/min in 10 gal/min steps by default)."""
     q = np.arange(200.0, 650.0 + 1e-9, 10.0) if flows is None else np.asarray(flows, float)
     original = sweep(preset, q, **sweep_kwargs)
-    changed = _design_sweep(preset, q, design, gap_via, **sweep_kwargs)
+    changed = design_sweep(preset, q, design, gap_via, **sweep_kwargs)
     return DesignResult(original, changed, design_metrics(original), design_metrics(changed),
                         dict(design), gap_via)
 
@@ -318,7 +322,7 @@ def optimise(
 
     def objective(x: np.ndarray) -> float:
         design = dict(zip(names, (float(v) for v in x), strict=True))
-        ds = _design_sweep(preset, q, design, gap_via, **kw)
+        ds = design_sweep(preset, q, design, gap_via, **kw)
         m = design_metrics(ds)
         s = score_of(m)
         history.append({**design, **m, "score": s})

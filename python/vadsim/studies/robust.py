@@ -21,8 +21,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim.model.presets import get_preset
-from vadsim.studies.design import STUDIES, design_metrics
-from vadsim.studies.sweep import sweep
+from vadsim.studies.design import STUDIES, design_metrics, design_sweep
 
 __all__ = ["THETA0_SPREAD", "GAP_SPREAD", "RobustResult", "constants_sample", "robust_compare",
            "robust_metrics", "robust_optimise", "robust_study"]
@@ -59,11 +58,9 @@ def _sweep_at(preset: str, flows: np.ndarray, design: Mapping[str, float],
               point: Mapping[str, float], kw: Mapping[str, Any]) -> Any:
     """A flow sweep of ``design`` with the constants of ``point`` (the design's own gap ratio
     multiplies the point's)."""
-    overrides = {k: float(v) for k, v in design.items() if k != "gap_ratio"}
-    overrides["theta0"] = float(point["theta0"])
     ratio = float(point["gap_ratio"]) * float(design.get("gap_ratio", 1.0))
-    ds = sweep(preset, flows, {"gap_ratio": [ratio]}, overrides=overrides, **kw)
-    return ds.isel(gap_ratio=0)
+    return design_sweep(preset, flows, {**design, "theta0": float(point["theta0"]),
+                                        "gap_ratio": ratio}, **kw)
 
 
 def robust_metrics(design: Mapping[str, float], preset: str = "7in-cde",
