@@ -32,6 +32,7 @@ from vadsim.studies.design import (
     RECOMMENDED,
     STUDIES,
     design_metrics,
+    design_sweep,
 )
 from vadsim.studies.sweep import sweep
 
@@ -146,17 +147,12 @@ def _preset_sweeps(name: str, kw: Mapping[str, Any]) -> dict[str, xr.Dataset]:
     out = {"cde": sweep(name, FLOWS, **kw),
            "rc": sweep(_rc_twin(name), field_events("7in", "RC").flow_gpm.to_numpy(float),
                        **kw)}
-    base = get_preset(name)
     designs = {"force": {"Fo": STUDIES["force"].hi * STUDIES["force"].scale},
                "gap": {"gap_ratio": 1.5}, "recommended": dict(RECOMMENDED),
                "spring_lo": {"kS": STUDIES["spring"].lo * STUDIES["spring"].scale},
                "spring_hi": {"kS": STUDIES["spring"].hi * STUDIES["spring"].scale}}
     for key, design in designs.items():
-        design = dict(design)
-        ratio = design.pop("gap_ratio", None)
-        axes = {"gap_ratio": [ratio]} if ratio is not None else None
-        ds = sweep(base.name, FLOWS, axes, overrides=design, **kw)
-        out[key] = ds.isel(gap_ratio=0) if ratio is not None else ds
+        out[key] = design_sweep(name, FLOWS, design, **kw)
     return out
 
 
@@ -333,23 +329,25 @@ def _field_reason(values: Mapping[str, float], field_value: float, tol: float) -
 
 # ------------------------------------------------------------------- chapter 5's numbers
 
-def _metrics(sweeps: Mapping[str, Mapping[str, xr.Dataset]], key: str) -> dict[str, dict]:
-    return {lab: design_metrics(s[key]) for lab, s in sweeps.items()}
+Metrics = Mapping[str, Mapping[str, dict]]
+"""design_metrics of each design sweep by sweep key (``cde``, ``force``...), then preset
+label."""
 
 
 def _parametric_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], run_s: float
                      ) -> list[dict[str, Any]]:
-    base = _metrics(sweeps, "cde")
+    m: Metrics = {key: {lab: design_metrics(s[key]) for lab, s in sweeps.items()}
+                  for key in ("cde", "force", "gap", "recommended", "spring_lo", "spring_hi")}
+    base = m["cde"]
     rows = []
     for key, target in (("force", "force_j"), ("gap", "gap_j"), ("recommended", "recommended_j")):
-        m = _metrics(sweeps, key)
-        ratio = {lab: round(m[lab]["j_max"] / base[lab]["j_max"] - 1, 3) for lab in sweeps}
+        ratio = {lab: round(m[key][lab]["j_max"] / base[lab]["j_max"] - 1, 3) for lab in sweeps}
         pub = DESIGN_TARGETS[target][2]
         rows.append(_row(f"parametric.csv:{key}:j_ratio", "parametric.csv",
                          f"max J* change, {key} design", pub, "ratio", ratio,
                          {lab: "reproduced" if abs(v - pub) <= 0.10 else "missed"
                           for lab, v in ratio.items()}, "0.10", scan_target=target))
-    rec = _metrics(sweeps, "recommended")
+    rec = m["recommended"]
     rng = {lab: round(rec[lab]["range_width_gpm"] / base[lab]["range_width_gpm"] - 1, 3)
            if base[lab]["range_width_gpm"] > 0 else math.nan for lab in sweeps}
     pub = PUBLISHED["recommended_range_ratio"]
@@ -361,27 +359,25 @@ def _parametric_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], run_s: floa
             ("original", base, PUBLISHED["original_range_from_gpm"],
              PUBLISHED["original_range_to_gpm"]),
             ("recommended", rec, 300.0, 390.0)):
-        vals = {lab: f"{m['range_from_gpm']:g}-{m['range_to_gpm']:g}" for lab, m in
+        vals = {lab: f"{mm['range_from_gpm']:g}-{mm['range_to_gpm']:g}" for lab, mm in
                 metrics.items()}
         rows.append(_row(f"parametric.csv:recommended:range_{which}", "parametric.csv",
                          f"operating range (J* >= 90 % of max), {which} design",
                          f"{lo:g}-{hi:g}", "gal/min", vals,
-                         {lab: "reproduced" if max(abs(m["range_from_gpm"] - lo),
-                                                   abs(m["range_to_gpm"] - hi)) <= 10
-                          else "missed" for lab, m in metrics.items()}, "10 gal/min",
+                         {lab: "reproduced" if max(abs(mm["range_from_gpm"] - lo),
+                                                   abs(mm["range_to_gpm"] - hi)) <= 10
+                          else "missed" for lab, mm in metrics.items()}, "10 gal/min",
                          scan_target="recommended_range"))
-    rows += _force_edge_rows(sweeps, base)
-    rows += _prose_rows(sweeps, base, run_s)
+    rows += _force_edge_rows(m)
+    rows += _prose_rows(m, run_s)
     return rows
 
 
-def _force_edge_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]],
-                     base: Mapping[str, dict]) -> list[dict[str, Any]]:
-    force = _metrics(sweeps, "force")
+def _force_edge_rows(m: Metrics) -> list[dict[str, Any]]:
     rows = []
-    for which, m, pub in (("nominal Fo", base, PUBLISHED["force_regime1_edge_hz_from"]),
-                          ("Fo 534.17 N/kg", force, PUBLISHED["force_regime1_edge_hz_to"])):
-        vals = {lab: round(mm["regime1_edge_hz"], 1) for lab, mm in m.items()}
+    for which, key, pub in (("nominal Fo", "cde", PUBLISHED["force_regime1_edge_hz_from"]),
+                            ("Fo 534.17 N/kg", "force", PUBLISHED["force_regime1_edge_hz_to"])):
+        vals = {lab: round(mm["regime1_edge_hz"], 1) for lab, mm in m[key].items()}
         rows.append(_row(f"parametric.csv:force:edge_{which.split()[0].lower()}",
                          "parametric.csv", f"regime 1 upper edge, {which}", pub, "Hz", vals,
                          {lab: "reproduced" if abs(v - pub) <= 1.1 else "missed"
@@ -390,11 +386,11 @@ def _force_edge_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]],
     return rows
 
 
-def _prose_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[str, dict],
-                run_s: float) -> list[dict[str, Any]]:
+def _prose_rows(m: Metrics, run_s: float) -> list[dict[str, Any]]:
     """parametric.csv's numbers in prose: the study ranges (inputs), the findings vadsim can
     measure from its sweeps, J* in kN (not comparable), the maps and the solver."""
-    labs = list(sweeps)
+    base = m["cde"]
+    labs = list(base)
     rows = []
     for study in STUDIES.values():
         rows.append(_row(f"parametric.csv:{study.name}:range", "parametric.csv",
@@ -402,7 +398,7 @@ def _prose_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[st
                          f"{study.lo:g}-{study.hi:g} step {study.step:g}", "",
                          {lab: f"{study.lo:g}-{study.hi:g}" for lab in labs},
                          {lab: "input" for lab in labs}))
-    lo, hi = _metrics(sweeps, "spring_lo"), _metrics(sweeps, "spring_hi")
+    lo, hi = m["spring_lo"], m["spring_hi"]
     ks = {lab: round(hi[lab]["j_max"] / lo[lab]["j_max"] - 1, 3) for lab in labs}
     rows.append(_row("parametric.csv:spring:peak_j", "parametric.csv",
                      "spring study: peak J* hardly changes (kS 39.37 -> 787.4)", "hardly",
@@ -411,7 +407,7 @@ def _prose_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[st
                      "not part of the constants scan: its sensitivity to theta0 and the gap is "
                      "not measured; the reference and thesis presets differ only in theta0, "
                      "and their values above show how much it moves this number"))
-    gap = _metrics(sweeps, "gap")
+    gap = m["gap"]
     edge = {lab: f"{base[lab]['regime1_edge_gpm']:g} -> {gap[lab]['regime1_edge_gpm']:g}"
             for lab in labs}
     rows.append(_row("parametric.csv:gap:regime1", "parametric.csv",
@@ -427,14 +423,14 @@ def _prose_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[st
                      "gap study: best J* at 30-34 Hz (gap x1.5)", "30-34", "Hz", best,
                      {lab: "reproduced" if 29.0 <= v <= 35.0 else "missed"
                       for lab, v in best.items()}, "1 Hz", scan_target="gap_j"))
-    rows += _kn_rows(sweeps, base)
+    rows += _kn_rows(m)
     rows += _fixed_rows(labs, run_s)
     return rows
 
 
-def _kn_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[str, dict]
-             ) -> list[dict[str, Any]]:
-    labs = list(sweeps)
+def _kn_rows(m: Metrics) -> list[dict[str, Any]]:
+    base = m["cde"]
+    labs = list(base)
     wob_kn = 4.0 * 4.4482216152605
     reason = (f"J* in kN is J* (N/kg) times the reference mass m*, which the dissertation does "
               f"not publish; and the mean force through the bit equals the WOB ({wob_kn:.1f} "
@@ -447,7 +443,7 @@ def _kn_rows(sweeps: Mapping[str, Mapping[str, xr.Dataset]], base: Mapping[str, 
                             "20 -> 31.2"),
                            ("recommended", "recommended design: max J*, original -> it",
                             "20 -> 37")):
-        other = _metrics(sweeps, "spring_hi" if key == "spring" else key)
+        other = m["spring_hi" if key == "spring" else key]
         vals = {lab: f"{base[lab]['j_max']:.1f} -> {other[lab]['j_max']:.1f} N/kg"
                 for lab in labs}
         rows.append(_row(f"parametric.csv:{key}:kN", "parametric.csv", text, pub, "kN", vals,
@@ -466,10 +462,11 @@ def _fixed_rows(labs: list[str], run_s: float) -> list[dict[str, Any]]:
             ("maps:cycles", "every run: 400 cycles, the last 200 analysed", "400/200",
              "400/200", "input", "RunSettings defaults"),
             ("maps:regime6", "gap study: regime 6 in 4 of 7826 map points", "4 of 7826", "",
-             "not measured", "needs the thesis-resolution gap map (vadsim map --study gap, "
-             "about 8,000 runs); not re-run by this report"),
+             "not measured", "needs the thesis-resolution gap map (vadsim design gap --steps "
+             "85, about 8,000 runs); not re-run by this report"),
             ("maps:regimes", "spring and gap studies: five and six regimes in their maps",
-             "5; 6", "", "not measured", "needs the thesis-resolution maps (vadsim map)"),
+             "5; 6", "", "not measured",
+             "needs the thesis-resolution maps (vadsim design spring|gap)"),
             ("solver:ode23t", "one run of the workflow in Simulink ode23t (s)", "48",
              f"{run_s:.3f}", "not a model output",
              "vadsim's time for the same run (400 cycles, 200 gal/min), measured by this report"),
