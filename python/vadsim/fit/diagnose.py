@@ -545,10 +545,14 @@ def _vanishes(fit: HypothesisFit) -> bool:
     has a null at it): then it is no effect, whatever its refit of the others gained."""
     if not fit.keys:
         return True
-    last = CANDIDATES[fit.keys[-1]]
-    vals = fit.hypothesis.split(fit.point)[0][last.key]
-    nulls = [p for p in last.params if p.null is not None]
-    return bool(nulls) and all(vals[p.name] == p.null for p in nulls)
+    return _at_null(fit, fit.hypothesis.split(fit.point)[0][CANDIDATES[fit.keys[-1]].key])
+
+
+def _at_null(fit: HypothesisFit, values: Mapping[str, float]) -> bool:
+    """Whether ``values`` hold the last-added candidate's every parameter that has a null at
+    that null."""
+    nulls = [p for p in CANDIDATES[fit.keys[-1]].params if p.null is not None]
+    return bool(nulls) and all(values.get(p.name) == p.null for p in nulls)
 
 
 def _passes(fit: HypothesisFit, current: HypothesisFit, min_delta: float,
@@ -679,13 +683,12 @@ def _rescored(current: HypothesisFit, fits: list[HypothesisFit],
 
 
 def _vanishes_in_folds(fit: HypothesisFit) -> bool:
-    """Whether the last-added candidate sits at its null in every fold's chosen point."""
-    last = CANDIDATES[fit.keys[-1]]
-    nulls = {p.name: p.null for p in last.params if p.null is not None}
+    """Whether the last-added candidate sits at its null in every fold's chosen point (the
+    fold values are by name: only when the names identify the coordinates)."""
     names = [p.name for p in fit.hypothesis.specs]
-    if not nulls or len(set(names)) != len(names) or not fit.fold_values:
+    if len(set(names)) != len(names) or not fit.fold_values:
         return False
-    return all(fv.get(n) == v for fv in fit.fold_values.values() for n, v in nulls.items())
+    return all(_at_null(fit, fv) for fv in fit.fold_values.values())
 
 
 def _unexplained(final: HypothesisFit, flows: Mapping[str, float], max_rms: float

@@ -25,7 +25,7 @@ __all__ = ["constants_maps", "target_maps"]
 _GROUP_ORDER = ("regime band", "CDE peak", "RC peak", "design ratio")
 
 
-def _grid(scores: pd.DataFrame, values: pd.Series) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _grid(values: pd.Series) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(theta0, gap_ratio, values[gap, theta0]) of a per-point series."""
     table = values.unstack("theta0").sort_index()
     return (np.asarray(table.columns, float), np.asarray(table.index, float),
@@ -62,8 +62,8 @@ def constants_maps(scores: pd.DataFrame, best: dict[str, Any] | None = None,
     for ax, (title, sub) in zip(axes, panels, strict=True):
         met = sub.groupby(["theta0", "gap_ratio"]).ok.sum()
         total = sub.groupby(["theta0", "gap_ratio"]).ok.size()
-        th, gr, z = _grid(sub, met)
-        _, _, n = _grid(sub, total)
+        th, gr, z = _grid(met)
+        _, _, n = _grid(total)
         z = np.where(np.isfinite(n), z, np.nan)
         top = int(np.nanmax(n)) if np.isfinite(n).any() else 1
         cmap = ListedColormap(_ramp(top + 1))
@@ -98,9 +98,9 @@ def target_maps(scores: pd.DataFrame, best: dict[str, Any] | None = None,
     mesh = None
     for ax, target in zip(axes, targets, strict=False):
         sub = scores[scores.target == target]
-        err = (sub.set_index(["theta0", "gap_ratio"]).error
-               / sub.set_index(["theta0", "gap_ratio"]).tolerance).clip(upper=5.0)
-        th, gr, z = _grid(sub, err)
+        at = sub.set_index(["theta0", "gap_ratio"])
+        err = (at.error / at.tolerance).clip(upper=5.0)
+        th, gr, z = _grid(err)
         mesh = ax.pcolormesh(edges(th), edges(gr), z, cmap="viridis_r", vmin=0, vmax=5,
                              shading="flat")
         if np.nanmin(z) <= 1 < np.nanmax(z):
