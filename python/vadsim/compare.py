@@ -23,7 +23,11 @@ features, the simulation computes every kind). They enter ``EventSimulation.sens
 
 :class:`CampaignEvaluator` does 1-4 for every event of a campaign and any model change (extra
 physics, overrides, a measurement), in parallel threads, caching runs: a measurement-side
-change re-measures the base model's runs instead of running the model again.
+change re-measures the base model's runs instead of running the model again. With a
+:class:`~vadsim.model.cache.ResultCache` (``cache=`` or ``$VADSIM_CACHE``) each event's
+measured simulation is also kept on disk, keyed by its exact inputs and the code's
+fingerprint, so another diagnosis, calibration or validation that meets the same run (the same
+event under the same model) reads it instead of running it again.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim.campaigns.format import Campaign, Event
+from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.change import Measurement, ModelChange
 from vadsim.model.settings import RunSettings
 from vadsim.model.simulate import G, SimulationResult, SolverError
@@ -98,6 +103,30 @@ class EventSimulation:
     signals: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     rate_hz: float = 0.0
     error: str = ""
+
+    def to_json(self) -> dict[str, Any]:
+        """Everything but the event's id and the kept signals, JSON-ready and exact (what a
+        :class:`~vadsim.model.cache.ResultCache` stores)."""
+        def feats(d: Mapping[str, Feature]) -> dict[str, list[float]]:
+            return {k: [f.value, f.spread, f.n] for k, f in d.items()}
+
+        return {"flow_gpm": self.flow_gpm, "wob_klbf": self.wob_klbf, "f_exc_hz": self.f_exc_hz,
+                "sensor": feats(self.sensor), "full": feats(self.full), "z": dict(self.z),
+                "scenario": self.scenario, "phase_sd": dict(self.phase_sd),
+                "rate_hz": self.rate_hz, "error": self.error}
+
+    @classmethod
+    def from_json(cls, event_id: str, d: Mapping[str, Any]) -> EventSimulation:
+        """The inverse of :meth:`to_json` for event ``event_id``."""
+        def feats(m: Mapping[str, list[float]]) -> dict[str, Feature]:
+            return {k: Feature(float(v), float(sp), int(n)) for k, (v, sp, n) in m.items()}
+
+        return cls(event_id=event_id, flow_gpm=float(d["flow_gpm"]),
+                   wob_klbf=float(d["wob_klbf"]), f_exc_hz=float(d["f_exc_hz"]),
+                   sensor=feats(d["sensor"]), full=feats(d["full"]),
+                   z={k: float(v) for k, v in d["z"].items()}, scenario=int(d["scenario"]),
+                   phase_sd={k: float(v) for k, v in d["phase_sd"].items()},
+                   rate_hz=float(d["rate_hz"]), error=str(d["error"]))
 
 
 def sensor_groups(campaign: Campaign) -> dict[float, list[str]]:
@@ -413,13 +442,18 @@ class CampaignEvaluator:
     folded
         Compare folded (or distribution) features of recorded time series too (default
         :data:`FOLDED`); they join the keys both for the default targets and the simulations.
+    cache
+        A :class:`~vadsim.model.cache.ResultCache` or its folder for the measured
+        simulations (None: ``$VADSIM_CACHE`` if set; False: none). Changes with a
+        measurement-side part and core extra-force objects are never cached.
     """
 
     def __init__(self, campaign: Campaign, settings: RunSettings, *,
                  targets: Mapping[str, Mapping[str, Feature]] | None = None,
                  keys: Mapping[str, Sequence[str]] | None = None, resolution: str = "sensor",
                  phases: int = 8, workers: int | None = None,
-                 folded: bool | None = None) -> None:
+                 folded: bool | None = None,
+                 cache: ResultCache | str | os.PathLike[str] | bool | None = None) -> None:
         if resolution not in ("sensor", "full"):
             raise ValueError(f"resolution = {resolution!r} must be 'sensor' or 'full'")
         if not (isinstance(phases, int) and phases >= 1):
@@ -435,6 +469,7 @@ class CampaignEvaluator:
                          for ev in campaign.events})
         self.keys: dict[str, list[str]] = {e: list(k) for e, k in (keys or {}).items()}
         self.n_evals = 0
+        self.cache = default_cache(cache)
         self._runs: dict[str, SimulationResult | None] = {}
         self._shared: OrderedDict[tuple[Any, str], SimulationResult] = OrderedDict()
         self._shared_lock = threading.Lock()
@@ -484,10 +519,39 @@ class CampaignEvaluator:
                 self._shared.popitem(last=False)
         return r
 
+    def _cache_key(self, change: ModelChange, ev: Event) -> str | None:
+        """The key of an event's measured simulation under a change (None: not cacheable).
+        The event's id is not part of it: another campaign's event at the same operating
+        point, with the same sensors, shares the result."""
+        if self.cache is None or change.measurement is not None:
+            return None
+        try:
+            settings = change.apply(self.settings, ev.flow_gpm)
+            return self.cache.key("event-simulation", self.resolution, settings, ev.flow_gpm,
+                                  float(ev.wob_klbf), _fine_rate_hz(self.campaign),
+                                  self.campaign.sensors, self.phases, self.folded)
+        except (Uncacheable, ValueError):
+            return None
+
     def simulate(self, change: ModelChange | None, eid: str) -> EventSimulation | None:
-        """One event under a change (None: the base model); None if its run fails."""
+        """One event under a change (None: the base model); None if its run fails. Read
+        from and written to the cache where there is one."""
         ev = self.events[eid]
         change = change or ModelChange()
+        key = self._cache_key(change, ev)
+        if key is not None:
+            assert self.cache is not None
+            hit = self.cache.get(key)
+            if hit is not None:
+                return None if hit.get("failed") else EventSimulation.from_json(eid, hit)
+        sim = self._simulate(change, eid)
+        if key is not None:
+            assert self.cache is not None
+            self.cache.put(key, {"failed": True} if sim is None else sim.to_json())
+        return sim
+
+    def _simulate(self, change: ModelChange, eid: str) -> EventSimulation | None:
+        ev = self.events[eid]
         try:
             if self.resolution == "full":
                 return summary_event(self.campaign, ev, change.apply(self.settings, ev.flow_gpm))

@@ -133,6 +133,10 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
     dg.add_argument("--json", action="store_true",
                     help="print one JSON object (missing_physics, parameters, located, "
                     "heldout_error_before/after, ranking); progress goes to stderr")
+    dg.add_argument("--cache", metavar="DIR", default=None,
+                    help="keep every measured run in DIR and read the ones a previous "
+                    "diagnosis, calibration or validation made (default: $VADSIM_CACHE if "
+                    "set, else none); a run is reused only with the same inputs and code")
     dg.add_argument("--candidates", nargs="+", default=None,
                     help="candidate ids to try (default: all)")
     dg.add_argument("--predict", metavar="CAMPAIGN",
@@ -251,9 +255,9 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
                     max_effects=args.max_effects, max_rms=args.max_rms,
-                    workers=args.workers, progress=not args.quiet)
+                    workers=args.workers, progress=not args.quiet, cache=args.cache)
     if args.predict:
-        predict(diag, args.predict, workers=args.workers)
+        predict(diag, args.predict, workers=args.workers, cache=args.cache)
     path = write_diagnosis_report(diag, args.out, fmt=args.format)
     if args.json:
         print(json.dumps(diag.as_json()))

@@ -66,6 +66,7 @@ from vadsim.fit.hypothesis import (
 )
 from vadsim.fit.locate import Mismatch, locate
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
+from vadsim.model.cache import ResultCache, default_cache
 from vadsim.model.presets import Preset
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
@@ -448,6 +449,9 @@ class _Context:
     keys: Mapping[str, Sequence[str]]
     probe_eids: tuple[str, ...]
     probe_folds: tuple[Fold, ...]
+    cache: str | bool = False
+    """The result cache's folder (False: none); a folder, not the object, crosses to a
+    worker process."""
 
     def evaluator(self, probe: bool, workers: int) -> CampaignEvaluator:
         """A comparison engine at the diagnosis' fidelity or at a probe's."""
@@ -457,7 +461,8 @@ class _Context:
                 cycles=settings.cycles * PROBE_CYCLE_FRACTION,
                 analyse_cycles=settings.analyse_cycles * PROBE_CYCLE_FRACTION)
         return CampaignEvaluator(self.campaign, settings, targets=self.targets,
-                                 keys=self.keys, phases=self.phases, workers=workers)
+                                 keys=self.keys, phases=self.phases, workers=workers,
+                                 cache=self.cache)
 
 
 def _probe_subset(camp: Campaign, folds: Sequence[Fold], n: int,
@@ -732,6 +737,7 @@ def diagnose(
     block_fraction: float = 0.3,
     workers: int | None = None,
     progress: ProgressArg = True,
+    cache: ResultCache | str | os.PathLike[str] | bool | None = None,
 ) -> Diagnosis:
     """Calibrate the base model's nuisance constants, locate the mismatch, select missing
     physics by forward selection on held-out events, and give a verdict.
@@ -773,16 +779,18 @@ def diagnose(
     progress
         ``True`` (default): a progress bar on stderr; ``False``: silent; a callable: called
         with one line per finished step.
+    cache
+        A folder (or :class:`~vadsim.model.cache.ResultCache`) that keeps every measured
+        run, so that a second diagnosis, calibration or validation meeting the same runs
+        reads them (None: ``$VADSIM_CACHE`` if set; False: none).
     """
     t0 = time.perf_counter()
+    store = default_cache(cache)
+    cache_folder: str | bool = str(store.folder) if store is not None else False
     say = reporter(progress)
     camp = load_any_campaign(campaign)
     _check_thresholds(min_delta, min_reduction, block_fraction, phases)
-    _check_selection(max_effects, screen_top, max_rms)
-    if not (0 <= noise_rms < max_rms):
-        raise ValueError(f"noise_rms = {noise_rms!r} must be in [0, max_rms = {max_rms!r})")
-    if not (isinstance(screen_top, int) and screen_top >= 1):
-        raise ValueError(f"screen_top = {screen_top!r} must be an integer >= 1")
+    _check_selection(max_effects, screen_top, max_rms, noise_rms)
     keys = keys_for(list(candidates) if candidates is not None else None)
     settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},
                            cycles=cycles, analyse_cycles=analyse_cycles)
@@ -794,13 +802,14 @@ def diagnose(
                 screen_top=screen_top, max_rms=max_rms,
                 noise_rms=noise_rms)
     with CampaignEvaluator(camp, settings, phases=phases,
-                           workers=workers or os.cpu_count() or 1) as ev, \
+                           workers=workers or os.cpu_count() or 1, cache=cache_folder) as ev, \
             bar(progress, len(keys) + 2, f"diagnose {camp.name}", "fit") as b, \
             contextlib.ExitStack() as stack:
         plain = fit_hypothesis(ev, Hypothesis(), (), [], folds, eids, say)
         probe_eids, probe_folds = _probe_subset(camp, folds, PROBE_EVENTS)
         ctx = _Context(camp, settings, phases, tuple(folds), tuple(eids), ev.targets,
-                       {e: tuple(k) for e, k in ev.keys.items()}, probe_eids, probe_folds)
+                       {e: tuple(k) for e, k in ev.keys.items()}, probe_eids, probe_folds,
+                       cache_folder)
         coarse_ev = stack.enter_context(ctx.evaluator(True, ev.workers))
         hyp0 = Hypothesis((), nuis)
         base = _calibrate_base(ctx, ev, coarse_ev, hyp0, say)
@@ -834,13 +843,16 @@ def diagnose(
         )
 
 
-def _check_selection(max_effects: int, screen_top: int, max_rms: float) -> None:
+def _check_selection(max_effects: int, screen_top: int, max_rms: float,
+                     noise_rms: float = 0.0) -> None:
     if not (isinstance(max_effects, int) and max_effects >= 1):
         raise ValueError(f"max_effects = {max_effects!r} must be an integer >= 1")
     if not (isinstance(screen_top, int) and screen_top >= 1):
         raise ValueError(f"screen_top = {screen_top!r} must be an integer >= 1")
     if not (max_rms > 0 and math.isfinite(max_rms)):
         raise ValueError(f"max_rms = {max_rms!r} must be a finite number > 0")
+    if not (0 <= noise_rms < max_rms):
+        raise ValueError(f"noise_rms = {noise_rms!r} must be in [0, max_rms = {max_rms!r})")
 
 
 def _check_thresholds(min_delta: float, min_reduction: float, block_fraction: float,
@@ -883,10 +895,11 @@ def _rms_of(got: Mapping[tuple[Point, str], EventEval], pt: Point, eids: Sequenc
 
 
 def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
-            preset: Preset | None = None, workers: int | None = None) -> dict[str, Any]:
+            preset: Preset | None = None, workers: int | None = None,
+            cache: ResultCache | str | os.PathLike[str] | bool | None = None) -> dict[str, Any]:
     """Predict another campaign with the calibrated base model and with the diagnosis' final
     model (fitted values and nuisance constants, nothing refitted), e.g. the 7in RC test from
-    a fit on the CDE test.
+    a fit on the CDE test. ``cache`` as in :func:`diagnose`.
 
     Returns a JSON-ready dict (also stored as ``diag.prediction``): RMS standardised
     residual before/after and per event.
@@ -897,7 +910,7 @@ def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
                            cycles=s["cycles"], analyse_cycles=s["analyse_cycles"])
     eids = [e.id for e in camp.events]
     with CampaignEvaluator(camp, settings, phases=s["phases"],
-                           workers=workers or os.cpu_count() or 1) as ev:
+                           workers=workers or os.cpu_count() or 1, cache=cache) as ev:
         base = diag.none_fit
         got = HypothesisCosts(ev, base.hypothesis, eids).evaluate([base.point])
         before, per_before = _rms_of(got, base.point, eids)
