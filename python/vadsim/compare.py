@@ -575,14 +575,24 @@ class CampaignEvaluator:
             self.keys[eid] = sorted(event_residuals(sim, tgt, self.resolution))
         keys = self.keys[eid]
         if sim is None:
-            return EventEval(None, np.full(len(keys), FAILED_RESIDUAL), np.full(len(keys), np.nan))
-        zd = event_residuals(sim, tgt, self.resolution)
+            return EventEval(None, self.compared(None, eid, tgt), np.full(len(keys), np.nan))
         feats = sim.sensor if self.resolution == "sensor" else sim.full
-        z = np.array([zd.get(k, FAILED_RESIDUAL) for k in keys])
+        z = self.compared(sim, eid, tgt)
         values = np.array([sim.z[k[2:]] if k.startswith("z_") and k[2:] in sim.z
                            else feats.get(k, Feature(math.nan, math.nan, 0)).value
                            for k in keys])
         return EventEval(sim, z, values)
+
+    def compared(self, sim: EventSimulation | None, eid: str,
+                 targets: Mapping[str, Feature]) -> np.ndarray:
+        """The compared residuals of one event's simulation against ``targets`` (the
+        recorded features, or another draw of them), in the evaluator's key order; a failed
+        run or a lost feature gives :data:`FAILED_RESIDUAL`."""
+        keys = self.keys[eid]
+        if sim is None:
+            return np.full(len(keys), FAILED_RESIDUAL)
+        zd = event_residuals(sim, targets, self.resolution)
+        return np.array([zd.get(k, FAILED_RESIDUAL) for k in keys])
 
     def evaluate(self, items: Sequence[tuple[Hashable, ModelChange | None]],
                  eids: Sequence[str] | None = None) -> dict[tuple[Hashable, str], EventEval]:

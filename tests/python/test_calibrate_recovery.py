@@ -50,3 +50,35 @@ def test_calibration_recovers_l0_and_wob_within_5_percent(campaign):
     err = {n: res.estimates[n] / TRUTH[n] - 1 for n in TRUTH}
     assert all(abs(e) <= 0.05 for e in err.values()), (res.summary(), err)
     assert res.cost_after < res.cost_before
+
+
+@pytest.fixture(scope="module")
+def fo_campaign():
+    """The README's example: three flows recorded with Fo = 380 N/kg (the preset's 400)."""
+    return synthetic_campaign("7in-cde", (200, 450, 600), overrides={"Fo": 380.0})
+
+
+def test_the_readme_interval_holds_the_truth_with_a_measured_threshold(fo_campaign):
+    """The README's calibration: its 95 % interval holds the true Fo = 380 without spanning
+    the whole search range, and its threshold is the bootstrap's (measured on campaigns the
+    fitted model writes), never below the independent-residual rule's chi2(1) s^2."""
+    res = calibrate(fo_campaign, ["Fo"], bounds={"Fo": (200, 600)}, n_global=32,
+                    progress=False, n_boot=30)
+    assert res.interval_method == "bootstrap"
+    lo, hi = res.interval["Fo"]
+    assert lo <= 380.0 <= hi, res.summary()
+    assert lo <= res.estimates["Fo"] <= hi
+    assert hi - lo < 0.5 * (600 - 200), res.summary()
+    assert res.threshold["Fo"] >= 3.841458820694124
+    assert "bootstrap" in res.summary()
+
+
+def test_the_bootstrap_needs_recordings_and_names_what_is_wrong(fo_campaign):
+    with pytest.raises(ValueError, match="interval_method = 'bootstrap' draws recordings"):
+        calibrate("thesis:7in-cde", ["Fo"], interval_method="bootstrap", progress=False)
+    with pytest.raises(ValueError, match="interval_method = 'jackknife'"):
+        calibrate(fo_campaign, ["Fo"], interval_method="jackknife", progress=False)
+    with pytest.raises(ValueError, match="n_boot = 1 "):
+        calibrate(fo_campaign, ["Fo"], n_boot=1, progress=False)
+    with pytest.raises(ValueError, match="noise_g = -0.1"):
+        calibrate(fo_campaign, ["Fo"], noise_g=-0.1, progress=False)

@@ -20,10 +20,10 @@ from vadsim.campaigns import Campaign, Event, Sensor
 from vadsim.model.change import ModelChange
 from vadsim.model.presets import Preset, get_preset
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G
+from vadsim.model.simulate import G, SimulationResult
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
-__all__ = ["DEFAULT_SENSORS", "synthetic_campaign"]
+__all__ = ["DEFAULT_SENSORS", "record_run", "synthetic_campaign"]
 
 DEFAULT_SENSORS: dict[str, Sensor] = {
     "x1": Sensor("x1", 1, 1024.0, 250.0),
@@ -107,29 +107,48 @@ def synthetic_campaign(
         run = change.apply(base, q) if change is not None else base
         r = run.with_changes(cycles=settle + n_an, analyse_cycles=n_an).run(
             q, wob_klbf=wob, record="window", output_rate_hz=fine)
-        phase = float(rng.uniform(0.0, 1.0))
-        columns: dict[str, np.ndarray] = {}
-        clipped: dict[str, np.ndarray] = {}
-        t_s = None
-        for sname, s in sensors.items():
-            a_true = r.a[:, s.dof - 1] / G
-            if measurement is not None:
-                a_true = np.asarray(measurement(sname, a_true, fine), dtype=float)
-            t_s, a_s, clip = sensor_chain(r.t, a_true, rate_hz=s.rate_hz,
-                                          range_g=s.range_g, lowpass_hz=s.lowpass_hz,
-                                          phase=phase, noise_g=noise_g, rng=rng)
-            columns[f"{sname}_g"] = a_s
-            clipped[sname] = clip
-        n = min(len(c) for c in columns.values())
-        if duration_s:
-            n = min(n, int(round(duration_s * max(s.rate_hz for s in sensors.values()))))
-        assert t_s is not None  # there is at least one sensor
-        t0 = t_s[0]
-        data = pd.DataFrame({"time_s": np.round(t_s[:n] - t0, 7),
-                             **{k: v[:n] for k, v in columns.items()}})
-        events.append(Event(id=f"e{i + 1:02d}", flow_gpm=float(q), wob_klbf=float(wob),
-                            file=f"e{i + 1:02d}.csv", data=data,
-                            clipped={k: v[:n] for k, v in clipped.items()}))
+        events.append(record_run(r, sensors, event_id=f"e{i + 1:02d}", flow_gpm=float(q),
+                                 wob_klbf=float(wob), phase=float(rng.uniform(0.0, 1.0)),
+                                 noise_g=noise_g, rng=rng, duration_s=duration_s,
+                                 measurement=measurement, fine_rate_hz=fine))
     return Campaign(name=name, tool=p.tool, bit=p.bit, wob_klbf=float(wobs[0]),
                     sensors=sensors, events=events,
                     description=f"written by vadsim from preset {p.name}")
+
+
+def record_run(r: SimulationResult, sensors: Mapping[str, Sensor], *, event_id: str,
+               flow_gpm: float, wob_klbf: float, phase: float, noise_g: float,
+               rng: np.random.Generator, duration_s: float | None = None,
+               measurement: Callable[[str, np.ndarray, float], np.ndarray] | None = None,
+               fine_rate_hz: float | None = None) -> Event:
+    """One event recorded from a run on a fine grid: each sensor's chain at sampling
+    ``phase`` (fraction of a sample) with Gaussian noise, cut to ``duration_s``.
+
+    What a campaign's recording of that run would be; also how a calibration draws the
+    recordings its parametric bootstrap needs. ``fine_rate_hz`` is the run's output rate
+    (what ``measurement`` is told; default from the time step).
+    """
+    fine = (fine_rate_hz if fine_rate_hz is not None
+            else 1.0 / float(r.t[1] - r.t[0]) if r.t.size > 1 else math.nan)
+    columns: dict[str, np.ndarray] = {}
+    clipped: dict[str, np.ndarray] = {}
+    t_s = None
+    for sname, s in sensors.items():
+        a_true = r.a[:, s.dof - 1] / G
+        if measurement is not None:
+            a_true = np.asarray(measurement(sname, a_true, fine), dtype=float)
+        t_s, a_s, clip = sensor_chain(r.t, a_true, rate_hz=s.rate_hz, range_g=s.range_g,
+                                      lowpass_hz=s.lowpass_hz, phase=phase, noise_g=noise_g,
+                                      rng=rng)
+        columns[f"{sname}_g"] = a_s
+        clipped[sname] = clip
+    n = min(len(c) for c in columns.values())
+    if duration_s:
+        n = min(n, int(round(duration_s * max(s.rate_hz for s in sensors.values()))))
+    if t_s is None:
+        raise ValueError("sensors is empty")
+    data = pd.DataFrame({"time_s": np.round(t_s[:n] - t_s[0], 7),
+                         **{k: v[:n] for k, v in columns.items()}})
+    return Event(id=event_id, flow_gpm=float(flow_gpm), wob_klbf=float(wob_klbf),
+                 file=f"{event_id}.csv", data=data,
+                 clipped={k: v[:n] for k, v in clipped.items()})

@@ -111,6 +111,15 @@ def _add_calibrate(sub: Subparsers, parents: Parents) -> None:
     ca.add_argument("--seed", type=int, default=1)
     ca.add_argument("--profile", type=int, default=0, metavar="N",
                     help="profile the cost along each parameter at N points")
+    ca.add_argument("--interval", dest="interval_method", default="auto",
+                    choices=["auto", "bootstrap", "profile"],
+                    help="how far the cost may rise inside a 95 %% interval: measured on "
+                    "campaigns the fitted model writes (bootstrap), chi2(1) s^2 (profile), "
+                    "or the bootstrap where the targets are recorded time series (auto)")
+    ca.add_argument("--n-boot", type=int, default=50,
+                    help="bootstrap: campaigns the fitted model writes (50)")
+    ca.add_argument("--noise-g", type=float, default=0.3,
+                    help="bootstrap: the sensors' noise, g RMS (0.3)")
     ca.add_argument("--json", action="store_true")
     ca.set_defaults(func=_cmd_calibrate)
 
@@ -223,11 +232,13 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                     global_stage=global_stages[args.global_stage],
                     n_global=args.n_global, n_starts=args.starts,
                     popsize=args.popsize, maxiter=args.maxiter, seed=args.seed,
-                    profile_points=args.profile, cycles=args.cycles,
+                    profile_points=args.profile, interval_method=args.interval_method,
+                    n_boot=args.n_boot, noise_g=args.noise_g, cycles=args.cycles,
                     analyse_cycles=args.analyse, workers=args.workers, callback=report,
                     progress=not args.quiet)
     if args.json:
         print(json.dumps({"estimates": res.estimates, "interval": res.interval,
+                          "threshold": res.threshold, "interval_method": res.interval_method,
                           "stderr": res.stderr, "start": res.start, "cost_before": res.cost_before,
                           "cost_after": res.cost_after, "evaluations": res.evaluations,
                           "seconds": round(res.seconds, 2)}))

@@ -30,6 +30,7 @@ import pandas as pd
 from vadsim._progress import bar
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, ModelChange, recorded_features
+from vadsim.fit.bootstrap import cost_rises
 from vadsim.model.presets import Preset, canonical_name, make_params, param_names
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
@@ -114,10 +115,15 @@ def _objective(camp: Campaign, settings: RunSettings, targets, keys, resolution:
                              workers=workers)
 
 
+def _point(values: Mapping[str, float]) -> tuple[tuple[tuple[str, float], ...], ModelChange]:
+    """A point's cache key in the comparison engine and its change to the base model."""
+    change = ModelChange(overrides={k: float(v) for k, v in values.items()})
+    return tuple(sorted(change.overrides.items())), change
+
+
 def _residuals(obj: CampaignEvaluator, values: Mapping[str, float]) -> np.ndarray:
     """The campaign's standardised residuals with ``values`` overriding the base model."""
-    change = ModelChange(overrides={k: float(v) for k, v in values.items()})
-    return obj.residuals(tuple(sorted(change.overrides.items())), change)
+    return obj.residuals(*_point(values))
 
 
 def calibration_cost(
@@ -171,6 +177,8 @@ class CalibrationResult:
     history: pd.DataFrame
     profile: dict[str, pd.DataFrame] = field(default_factory=dict)
     interval: dict[str, tuple[float, float]] = field(default_factory=dict)
+    threshold: dict[str, float] = field(default_factory=dict)
+    interval_method: str = "profile"
     seconds: float = 0.0
     evaluations: int = 0
     settings: dict[str, Any] = field(default_factory=dict)
@@ -179,10 +187,16 @@ class CalibrationResult:
         """A few lines a person can read."""
         lines = [f"calibrated {', '.join(self.names)} in {self.seconds:.0f} s "
                  f"({self.evaluations} campaign evaluations)"]
+        how = ("cost rise from a bootstrap of the fitted model's recordings"
+               if self.interval_method == "bootstrap" else "cost rise chi2(1) s^2")
         for n in self.names:
             lo, hi = self.interval.get(n, (math.nan, math.nan))
             lines.append(f"  {n:>6} = {self.estimates[n]:.6g}, 95 % interval [{lo:.6g}, "
-                         f"{hi:.6g}] from the cost profile   (start {self.start[n]:.6g})")
+                         f"{hi:.6g}]   (start {self.start[n]:.6g})")
+        if self.threshold:
+            lines.append(f"  intervals: the values whose cost is within "
+                         f"{', '.join(f'{v:.3g}' for v in self.threshold.values())} of the "
+                         f"minimum ({how})")
         lines.append(f"  cost {self.cost_before:.4g} -> {self.cost_after:.4g} "
                      f"(RMS standardised residual "
                      f"{_rms(self.residuals_before):.3g} -> {_rms(self.residuals_after):.3g})")
@@ -221,6 +235,9 @@ def calibrate(
     maxiter: int = 10,
     seed: int = 1,
     profile_points: int = 0,
+    interval_method: str = "auto",
+    n_boot: int = 50,
+    noise_g: float = 0.3,
     cycles: float = 400,
     analyse_cycles: float = 200,
     workers: int | None = None,
@@ -272,6 +289,14 @@ def calibrate(
         Evaluations per local polish (``scipy.optimize.least_squares``).
     profile_points
         If > 0, also profile the cost along each parameter (others at the optimum).
+    interval_method
+        How far the cost may rise inside a 95 % interval: ``"bootstrap"`` measures it on
+        ``n_boot`` campaigns the fitted model writes (through the sensor chains, at random
+        sampling phases, with ``noise_g`` g of sensor noise; :mod:`vadsim.fit.bootstrap`),
+        ``"profile"`` takes ``chi2(1) s^2`` (independent residuals, which a recording's
+        features are not: too narrow), ``"auto"`` (default) the bootstrap where the targets
+        are recorded time series, else the profile. The bootstrap's threshold is never
+        below the profile's.
     callback
         Called as ``callback(stage, evaluation, cost, params)``.
     progress
@@ -281,8 +306,9 @@ def calibrate(
     -------
     CalibrationResult
         ``interval``: 95 % intervals from the cost along each parameter (the others at the
-        optimum): where the cost rises by ``CHI2_95 s^2`` above its minimum, ``s^2`` the
-        residual variance, at least 1 (the residuals are in units of the recordings' spreads).
+        optimum): where the cost stays within ``threshold`` of its minimum (see
+        ``interval_method``; the profile's is ``CHI2_95 s^2``, ``s^2`` the residual variance,
+        at least 1: the residuals are in units of the recordings' spreads).
         ``stderr`` from the Jacobian of the standardised residuals
         (``cov = s^2 (J^T J)^-1``) is kept for reference: on this rough cost (regime changes,
         phase aliases) it is far too small, so summaries quote the interval.
@@ -297,6 +323,12 @@ def calibrate(
     # l0 moves the excitation phase (and has 8.3 mm aliases) only while theta0 is unset
     if not math.isnan(settings.param("theta0")) or "theta0" in names:
         alias_stripes = 0
+    method = _interval_method(interval_method, targets, resolution, camp)
+    if method == "bootstrap" and not (isinstance(n_boot, int) and not isinstance(n_boot, bool)
+                                      and n_boot >= 2):
+        raise ValueError(f"n_boot = {n_boot!r} must be an integer >= 2")
+    if method == "bootstrap" and not (noise_g >= 0 and math.isfinite(noise_g)):
+        raise ValueError(f"noise_g = {noise_g!r} must be a finite number >= 0 (g RMS)")
     options: dict[str, Any] = dict(global_stage=global_stage, n_global=n_global, n_starts=n_starts,
                    alias_stripes=alias_stripes, alias_grid=alias_grid,
                    alias_refine=alias_refine, max_alias_rounds=max_alias_rounds,
@@ -304,12 +336,29 @@ def calibrate(
     with _objective(camp, settings, targets, keys, resolution, workers) as obj:
         with bar(progress, None, f"calibrate {camp.name}", "evaluation") as b:
             fit = _Calibration(obj, names, x0, lim, callback, bar=b, **options)
-            result = fit.run(profile_points)
+            result = fit.run(profile_points, method, n_boot=n_boot, noise_g=noise_g)
     result.settings = dict(targets=targets if isinstance(targets, str) else "custom",
                            resolution=resolution, keys=list(keys) if keys else None,
                            bounds={n: list(lim[n]) for n in names}, cycles=cycles,
-                           analyse_cycles=analyse_cycles, **options)
+                           analyse_cycles=analyse_cycles, interval_method=method,
+                           n_boot=n_boot, noise_g=noise_g, **options)
     return result
+
+
+def _interval_method(method: str, targets: Any, resolution: str, camp: Campaign) -> str:
+    """The interval method ``"auto"`` stands for, or ``method`` checked."""
+    drawable = (isinstance(targets, str) and targets == "recorded" and resolution == "sensor"
+                and all(ev.data is not None for ev in camp.events))
+    if method == "auto":
+        return "bootstrap" if drawable else "profile"
+    if method == "bootstrap" and not drawable:
+        raise ValueError("interval_method = 'bootstrap' draws recordings: it needs "
+                         "targets='recorded', resolution='sensor' and time series in every "
+                         "event")
+    if method not in ("bootstrap", "profile"):
+        raise ValueError(f"interval_method = {method!r} must be 'auto', 'bootstrap' or "
+                         "'profile'")
+    return method
 
 
 def _start_and_bounds(settings: RunSettings, names: list[str],
@@ -510,16 +559,13 @@ class _Calibration:
             out[nm] = pd.DataFrame({nm: grid, "cost": costs})
         return out
 
-    def interval(self, est: dict[str, float], nm: str, limit: float, steps: int = 8,
-                 grid: int = 25) -> tuple[float, float]:
-        """The values of ``nm`` (the others at the optimum) whose cost stays below ``limit``.
+    def probe_points(self, est: dict[str, float], nm: str, steps: int = 8,
+                     grid: int = 25) -> np.ndarray:
+        """The values of ``nm`` an interval is drawn on (the others at the optimum).
 
-        The 95 % interval of a likelihood-ratio test when the cost is a sum of squares (soft-L1
-        is one near zero). The cost is rough (regime changes, chaotic intermittent events,
-        phase aliases), so it is probed twice: walking outward from the optimum (from 0.1 % of
-        the range, doubling) and on a ``grid`` over the whole range. The interval spans every
-        accepted value, out to the nearest rejected value beyond it on each side (or the
-        bound): a second valley as good as the optimum widens it, as it should.
+        The cost is rough (regime changes, chaotic intermittent events, phase aliases), so it
+        is probed twice: walking outward from the optimum (from 0.1 % of the range,
+        doubling) and on a ``grid`` over the whole range.
         """
         lo_b, hi_b = self.lim[nm]
         xs = {est[nm]} | {float(v) for v in np.linspace(lo_b, hi_b, grid)}
@@ -527,8 +573,14 @@ class _Calibration:
             step = 0.001 * (hi_b - lo_b)
             for k in range(steps):
                 xs.add(min(max(est[nm] + sign * step * (2 ** (k + 1) - 1), lo_b), hi_b))
-        pts = np.array(sorted(xs))
-        cost = np.array([_soft_l1(self.residuals({**est, nm: float(x)})) for x in pts])
+        return np.array(sorted(xs))
+
+    def interval(self, est: dict[str, float], nm: str, pts: np.ndarray, cost: np.ndarray,
+                 limit: float) -> tuple[float, float]:
+        """The values of ``nm`` whose cost stays below ``limit``: every accepted probe, out
+        to the nearest rejected one beyond it on each side (or the bound). A second valley
+        as good as the optimum widens it, as it should."""
+        lo_b, hi_b = self.lim[nm]
         ok = np.flatnonzero(cost <= limit)
         if ok.size == 0:  # the optimum itself is on the limit: only its neighbours
             ok = np.array([int(np.argmin(np.abs(pts - est[nm])))])
@@ -536,7 +588,30 @@ class _Calibration:
         return (float(pts[lo_i - 1]) if lo_i > 0 else lo_b,
                 float(pts[hi_i + 1]) if hi_i < pts.size - 1 else hi_b)
 
-    def run(self, profile_points: int) -> CalibrationResult:
+    def thresholds(self, est: dict[str, float], pts: Mapping[str, np.ndarray], floor: float,
+                   method: str, n_boot: int, noise_g: float) -> dict[str, float]:
+        """Per parameter, how far the cost may rise inside its interval (see
+        :func:`calibrate`'s ``interval_method``)."""
+        if method != "bootstrap":
+            return dict.fromkeys(self.names, floor)
+        points: dict[Any, int] = {}
+        groups: dict[str, list[int]] = {}
+        items: list[tuple[Any, ModelChange]] = []
+        for nm in self.names:
+            for x in pts[nm]:
+                key, change = _point({**est, nm: float(x)})
+                if key not in points:
+                    points[key] = len(items)
+                    items.append((key, change))
+                groups.setdefault(nm, []).append(points[key])
+        got = self.obj.evaluate(items)  # every probe was evaluated for its cost: no run
+        probes = [{e: got[(key, e)].sim for e in self.obj.event_ids} for key, _ in items]
+        rises = cost_rises(self.obj, _point(est)[1], probes, groups, points[_point(est)[0]],
+                           _soft_l1, n_boot=n_boot, noise_g=noise_g, seed=self.seed)
+        return {nm: max(floor, float(np.quantile(rises[nm], 0.95))) for nm in self.names}
+
+    def run(self, profile_points: int, method: str = "profile", *, n_boot: int = 50,
+            noise_g: float = 0.3) -> CalibrationResult:
         t0 = time.perf_counter()
         r_before = self.residuals(self.x0)
         fits = [self.polish(c) for c in self.global_starts()]
@@ -553,13 +628,18 @@ class _Calibration:
         # Residuals are standardised by the recordings' spreads: their variance is 1 unless
         # the fit is worse than the recordings' scatter, then it is the residual variance.
         s2 = max(float(np.sum(r_after ** 2)) / max(r_after.size - len(self.names), 1), 1.0)
-        limit = cost_min + CHI2_95 * s2
-        interval = {nm: self.interval(est, nm, limit) for nm in self.names}
+        pts = {nm: self.probe_points(est, nm) for nm in self.names}
+        costs = {nm: np.array([_soft_l1(self.residuals({**est, nm: float(x)})) for x in p])
+                 for nm, p in pts.items()}
+        threshold = self.thresholds(est, pts, CHI2_95 * s2, method, n_boot, noise_g)
+        interval = {nm: self.interval(est, nm, pts[nm], costs[nm], cost_min + threshold[nm])
+                    for nm in self.names}
         return CalibrationResult(
             names=self.names, start=self.x0, estimates=est, stderr=stderr,
             cost_before=_soft_l1(r_before), cost_after=_soft_l1(r_after),
             residuals_before=self.obj.table(r_before), residuals_after=self.obj.table(r_after),
             history=pd.DataFrame(self.history), profile=prof, interval=interval,
+            threshold=threshold, interval_method=method,
             seconds=time.perf_counter() - t0, evaluations=self.evals,
         )
 
