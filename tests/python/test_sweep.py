@@ -407,9 +407,10 @@ def test_local_runs_in_parallel_by_default(monkeypatch: pytest.MonkeyPatch) -> N
 
 @pytest.fixture(scope="module")
 def dask_cluster() -> Iterator[Any]:
-    """A 2-worker local cluster of processes, closed even if a test fails."""
+    """A 4-worker local cluster of processes (more workers than cores: where a point runs
+    must not change its numbers), closed even if a test fails."""
     distributed = pytest.importorskip("dask.distributed")
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+    cluster = distributed.LocalCluster(n_workers=4, threads_per_worker=1, processes=True,
                                        dashboard_address=None)
     try:
         yield cluster
@@ -429,6 +430,16 @@ def test_dask_matches_local(dask_cluster: Any, base_map: xr.Dataset, tmp_path: P
     xr.testing.assert_identical(on_cluster, base_map)
     xr.testing.assert_identical(
         sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=store, **QUIET), base_map)
+
+
+def test_an_adaptive_map_on_dask_matches_local(dask_cluster: Any) -> None:
+    from vadsim.studies.refine import Refinement
+
+    rule = Refinement(coarse=2, j_tol=None)
+    local = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, refine=rule, **QUIET)
+    on_cluster = sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, refine=rule,
+                       scheduler=dask_cluster.scheduler_address, **QUIET)
+    xr.testing.assert_identical(on_cluster, local)
 
 
 def test_dask_matches_local_continuation(dask_cluster: Any,

@@ -161,6 +161,15 @@ def _add_map(sub: Subparsers, parents: Parents) -> None:
     mp.add_argument("--param2", default=None, help="optional second parameter")
     mp.add_argument("--values2", type=float, nargs=2, metavar=("FROM", "TO"))
     mp.add_argument("--steps2", type=int, default=5)
+    mp.add_argument("--adaptive", action="store_true",
+                    help="run a coarse lattice, then refine only where regimes, the operating "
+                    "range's edge (or J*, with --j-tol) change between neighbours; the rest "
+                    "is filled from the agreeing cell around it (variable 'simulated')")
+    mp.add_argument("--coarse", type=int, default=8,
+                    help="adaptive: stride of the first lattice, a power of two (8)")
+    mp.add_argument("--j-tol", type=float, default=None,
+                    help="adaptive: also refine where J* differs by more than this fraction "
+                    "of the map's max between neighbours (default: off)")
     mp.set_defaults(func=_cmd_map)
 
 
@@ -274,12 +283,21 @@ def _cmd_map(args: argparse.Namespace) -> int:
             else list(np.linspace(args.values[0], args.values[1], args.steps))}
     if args.param2:
         axes[args.param2] = list(np.linspace(args.values2[0], args.values2[1], args.steps2))
+    refine = None
+    if args.adaptive:
+        from vadsim.studies.refine import Refinement
+
+        refine = Refinement(coarse=args.coarse, j_tol=args.j_tol)
     t0 = time.perf_counter()
-    ds = sweep(args.preset, _flows(args), axes, **_sweep_options(args))
+    ds = sweep(args.preset, _flows(args), axes, refine=refine, **_sweep_options(args))
     elapsed = time.perf_counter() - t0
     _finish_dataset(ds, args)
     n = int(np.prod([ds.sizes[d] for d in ds.scenario.dims]))
-    print(f"{n} runs in {elapsed:.1f} s ({n / elapsed:.1f} runs/s)")
+    if refine is not None:
+        ran = int(ds["simulated"].sum())
+        print(f"{ran} of {n} points run ({ran / n:.1%}), the rest filled, in {elapsed:.1f} s")
+    else:
+        print(f"{n} runs in {elapsed:.1f} s ({n / elapsed:.1f} runs/s)")
     counts = {int(k): int(v) for k, v in zip(*np.unique(ds.scenario.values,
                                                          return_counts=True), strict=True)}
     print("scenario counts:", ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())))

@@ -40,6 +40,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from functools import cached_property
+from itertools import product
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +52,7 @@ from vadsim.model.presets import get_preset, make_params, param_table
 from vadsim.model.settings import ExtraSpec, RunSettings
 from vadsim.model.simulate import SURFACES, G, SolverError
 from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
+from vadsim.studies.refine import Refinement, fill, lattice, next_points
 
 __all__ = [
     "CLAIM_STALE_S",
@@ -320,13 +322,21 @@ class _Chunk:
     index: tuple[int, ...]
     start: int
     spec: PointSpec
+    flow_idx: tuple[int, ...] | None = None
+    """The flow indices of an adaptive map's chunk (None: ``start`` and the next ones)."""
 
     @property
     def key(self) -> str:
-        return "chunk-" + "-".join(str(i) for i in (*self.index, self.start))
+        key = "chunk-" + "-".join(str(i) for i in (*self.index, self.start))
+        if self.flow_idx is not None:  # scattered points: the exact set names the file
+            digest = hashlib.sha256(",".join(map(str, self.flow_idx)).encode()).hexdigest()
+            key += f"-p{len(self.flow_idx)}-{digest[:10]}"
+        return key
 
     @property
     def flow_index(self) -> list[int]:
+        if self.flow_idx is not None:
+            return list(self.flow_idx)
         return list(range(self.start, self.start + len(self.spec.flows)))
 
     def header(self, grid_hash: str) -> dict[str, Any]:
@@ -346,6 +356,7 @@ class _Grid:
     mode: str = "independent"
     gap_via: str = "spring"
     detail: str = "full"
+    refine: Refinement | None = None
 
     @property
     def continuation(self) -> bool:
@@ -383,6 +394,24 @@ class _Grid:
                                                         self.detail)))
         return out
 
+    def point_chunks(self, points: Sequence[tuple[int, ...]]) -> list[_Chunk]:
+        """Chunks that run exactly ``points`` (grid indices, flow last): per row, in flow
+        order, ``piece`` flows at a time."""
+        rows: dict[tuple[int, ...], list[int]] = {}
+        for p in points:
+            rows.setdefault(tuple(int(i) for i in p[:-1]), []).append(int(p[-1]))
+        names = list(self.axes)
+        out = []
+        for idx in sorted(rows):
+            values = tuple((n, float(self.axes[n][i])) for n, i in zip(names, idx, strict=True))
+            flows = sorted(set(rows[idx]))
+            for k in range(0, len(flows), self.piece):
+                part = tuple(flows[k:k + self.piece])
+                sub = tuple(float(self.flows[j]) for j in part)
+                out.append(_Chunk(idx, part[0], PointSpec(self.settings, sub, values, False,
+                                                          self.gap_via, self.detail), part))
+        return out
+
     @cached_property
     def document(self) -> dict[str, Any]:
         """The grid as JSON data (``grid.json``); axes as ordered pairs (order is meaning)."""
@@ -392,7 +421,8 @@ class _Grid:
                 "flows": self.flows.tolist(),
                 "axes": [[k, v.tolist()] for k, v in self.axes.items()],
                 "mode": self.mode, "gap_via": self.gap_via, "detail": self.detail,
-                "chunk_flows": self.piece}
+                "chunk_flows": self.piece,
+                **({"refine": self.refine.as_dict()} if self.refine is not None else {})}
 
     @cached_property
     def text(self) -> str:
@@ -571,10 +601,14 @@ class _Store:
         what = "; ".join(diff[:6]) + (" ..." if len(diff) > 6 else "") or "same fields"
         return f"{self.where} holds a different grid ({what}); {fix}"
 
-    def load(self, chunks: Sequence[_Chunk]) -> dict[str, list[dict[str, Any]]]:
-        """The verified rows of every chunk the store holds (bad ones reported, left out)."""
+    def load(self, chunks: Sequence[_Chunk], *, strays_too: bool = True
+             ) -> dict[str, list[dict[str, Any]]]:
+        """The verified rows of every chunk the store holds (bad ones reported, left out);
+        files of no chunk given are reported unless ``strays_too`` is False (an adaptive map
+        loads one level at a time)."""
         known = {c.key for c in chunks}
-        strays = [f.name for f in self._chunk_files() if f.stem not in known]
+        strays = ([f.name for f in self._chunk_files() if f.stem not in known]
+                  if strays_too else [])
         if strays:
             warnings.warn(f"{self.where}: ignored {len(strays)} file(s) that are no chunk of "
                           f"this grid: {', '.join(strays[:3])}", StoreWarning, stacklevel=3)
@@ -920,23 +954,34 @@ def _probe(settings: RunSettings, flows: np.ndarray, axes: dict[str, np.ndarray]
 
 def _make_grid(settings: RunSettings, flows: Sequence[float] | np.ndarray,
                axes: Mapping[str, Sequence[float] | np.ndarray] | None, *, mode: str,
-               gap_via: str, detail: str, workers: int | None, portable: bool) -> _Grid:
+               gap_via: str, detail: str, workers: int | None, portable: bool,
+               refine: Refinement | bool | None = None) -> _Grid:
     """Step 1: check every input and describe the computation (ValueError naming a bad one)."""
     _check_options(mode, gap_via, detail, workers)
+    if refine is True:
+        refine = Refinement()
+    elif refine is False:
+        refine = None
+    if refine is not None and not isinstance(refine, Refinement):
+        raise ValueError(f"refine = {refine!r} must be a Refinement, True or None")
+    if refine is not None and mode != "independent":
+        raise ValueError("an adaptive map (refine) runs points out of flow order: it needs "
+                         "mode = 'independent'")
     flows_arr, axes_arr = _flows_and_axes(flows, axes)
     if portable and not all(isinstance(e, ExtraSpec) for e in settings.extras):
         raise ValueError("extra forces given as core objects cannot be stored or sent to Dask: "
                          "pass them as ExtraSpec or mappings with 'kind'")
     _probe(settings, flows_arr, axes_arr, gap_via)
-    return _Grid(settings, flows_arr, axes_arr, mode, gap_via, detail)
+    return _Grid(settings, flows_arr, axes_arr, mode, gap_via, detail, refine)
 
 
 # --- the dataset -------------------------------------------------------------------------------
 
 
-def _fill(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[str, Any]]]
-          ) -> dict[str, np.ndarray]:
-    """One array per feature, every cell from its chunk (RuntimeError if one is missing)."""
+def _fill(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[str, Any]]],
+          partial: bool = False) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """One array per feature, every cell from its chunk, and which cells were run
+    (RuntimeError if one is missing, unless ``partial``)."""
     data = {name: (np.full(grid.shape, "", dtype=object) if name in _TEXT_FEATURES
                    else np.full(grid.shape, np.nan)) for name in FEATURES}
     filled = np.zeros(grid.shape, dtype=bool)
@@ -944,14 +989,14 @@ def _fill(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[st
         rows = done[chunk.key]
         if len(rows) != len(chunk.spec.flows):
             raise RuntimeError(f"{chunk.key}: {len(rows)} rows for {len(chunk.spec.flows)} flows")
-        for j, row in enumerate(rows):
-            cell = (*chunk.index, chunk.start + j)
+        for j, row in zip(chunk.flow_index, rows, strict=True):
+            cell = (*chunk.index, j)
             for name in FEATURES:
                 data[name][cell] = row[name]
             filled[cell] = True
-    if not filled.all():
+    if not partial and not filled.all():
         raise RuntimeError(f"{int((~filled).sum())} cells of the grid were not computed")
-    return data
+    return data, filled
 
 
 def _axis_attrs(name: str) -> dict[str, str]:
@@ -979,8 +1024,12 @@ def _coords(grid: _Grid) -> dict[str, Any]:
 
 def _assemble(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dict[str, Any]]]
               ) -> xr.Dataset:
-    """Step 5: the dataset, one variable per feature, CF ``units``/``long_name`` everywhere."""
-    data = _fill(grid, chunks, done)
+    """Step 5: the dataset, one variable per feature, CF ``units``/``long_name`` everywhere
+    (an adaptive map's points not run filled from their agreeing cell, and ``simulated``
+    saying which were run)."""
+    data, run = _fill(grid, chunks, done, partial=grid.refine is not None)
+    if grid.refine is not None:
+        fill(grid.shape, grid.refine.coarse, data, run)
     dims = (*grid.axes, "flow_gpm")
     ds = xr.Dataset(coords=_coords(grid))
     for name, desc in FEATURES.items():
@@ -1000,6 +1049,12 @@ def _assemble(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dic
         m_ref_kg=grid.settings.preset.m_ref_kg, vadsim_version=_version,
         grid_hash=grid.hash[:16],
     )
+    if grid.refine is not None:
+        ds["simulated"] = (dims, run, {"description": "the point was run (else filled from "
+                                       "the agreeing cell around it)", "units": "1",
+                                       "long_name": "simulated"})
+        ds.attrs.update(refine=json.dumps(grid.refine.as_dict()),
+                        simulated_fraction=float(run.mean()))
     return ds
 
 
@@ -1008,9 +1063,48 @@ def _progress_bar(grid: _Grid, todo: Sequence[_Chunk], progress: bool) -> Any:
         return None
     from tqdm.auto import tqdm
 
+    if grid.refine is not None:  # how many points an adaptive map runs is found as it goes
+        return tqdm(total=None, unit="run", desc=f"{grid.settings.preset.name} adaptive map",
+                    smoothing=0.05)
     total = int(np.prod(grid.shape))
     return tqdm(total=total, initial=total - sum(len(c.spec.flows) for c in todo), unit="run",
                 desc=f"{grid.settings.preset.name} sweep", smoothing=0.05)
+
+
+def _run_adaptive(grid: _Grid, store: _Store | None, workers: int | None,
+                  scheduler: str | None, bar: Any
+                  ) -> tuple[list[_Chunk], dict[str, list[dict[str, Any]]]]:
+    """Steps 2-4 of an adaptive map, level by level: run the coarse lattice, then the points
+    :func:`vadsim.studies.refine.next_points` chooses, until the stride is one or nothing is
+    left to refine. Each level's chunks are loaded from the store first (the choices depend
+    only on the results, so a resumed map makes the same ones)."""
+    assert grid.refine is not None
+    shape = grid.shape
+    run = np.zeros(shape, dtype=bool)
+    values = {"scenario": np.full(shape, np.nan), "j_pos": np.full(shape, np.nan)}
+    stride = grid.refine.coarse
+    points = [tuple(int(i) for i in p) for p in product(*(lattice(n, stride) for n in shape))]
+    chunks: list[_Chunk] = []
+    done: dict[str, list[dict[str, Any]]] = {}
+    while points:
+        level = grid.point_chunks(points)
+        if store is not None:
+            done.update(store.load(level, strays_too=False))
+        todo = [c for c in level if c.key not in done]
+        if bar is not None:
+            bar.update(sum(len(c.spec.flows) for c in level) - sum(len(c.spec.flows)
+                                                                  for c in todo))
+        if todo:
+            _run_chunks(todo, done, store, workers, scheduler, bar)
+        chunks += level
+        for c in level:
+            for j, row in zip(c.flow_index, done[c.key], strict=True):
+                cell = (*c.index, j)
+                run[cell] = True
+                values["scenario"][cell] = row["scenario"]
+                values["j_pos"][cell] = row["j_pos"]
+        stride, points = next_points(shape, stride, values, run, grid.refine)
+    return chunks, done
 
 
 # --- the public entry points -------------------------------------------------------------------
@@ -1037,6 +1131,7 @@ def sweep(
     scheduler: str | None = None,
     store: str | os.PathLike[str] | None = None,
     progress: bool = True,
+    refine: Refinement | bool | None = None,
 ) -> xr.Dataset:
     """Run the model over flow rates and (optionally) one or more parameter axes.
 
@@ -1081,6 +1176,13 @@ def sweep(
         whose grid cannot be verified, is refused (ValueError).
     progress
         Show a progress bar (tqdm) on stderr.
+    refine
+        An adaptive map (:class:`~vadsim.studies.refine.Refinement`; True: its defaults):
+        run a coarse lattice, then refine only where regimes, the operating range's edge or
+        J* change between neighbours, down to the grid's resolution; the other points are
+        filled from the agreeing cell around them (labels from its nearest corner, J* and
+        peaks interpolated, never across a boundary). The dataset gains ``simulated``
+        (which points were run). Independent mode only; a store resumes it level by level.
 
     Returns
     -------
@@ -1093,7 +1195,17 @@ def sweep(
         overrides=overrides, law=law, extras=extras, wob_klbf=wob_klbf, cycles=cycles,
         analyse_cycles=analyse_cycles, rtol=rtol, method=method))
     grid = _make_grid(run, flows, axes, mode=mode, gap_via=gap_via, detail=detail,
-                      workers=workers, portable=store is not None or bool(scheduler))
+                      workers=workers, portable=store is not None or bool(scheduler),
+                      refine=refine)
+    if grid.refine is not None:
+        opened = _Store.open(store, grid) if store is not None else None
+        bar = _progress_bar(grid, [], progress)
+        try:
+            chunks, done = _run_adaptive(grid, opened, workers, scheduler, bar)
+        finally:
+            if bar is not None:
+                bar.close()
+        return _assemble(grid, chunks, done)
     chunks = grid.chunks()
     opened = _Store.open(store, grid) if store is not None else None
     done = opened.load(chunks) if opened is not None else {}
