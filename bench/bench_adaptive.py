@@ -53,10 +53,11 @@ def main() -> int:
     ap.add_argument("--gap-steps", type=int, default=85)
     ap.add_argument("--hz-step", type=float, default=0.5)
     ap.add_argument("--cycles", type=float, default=400)
-    ap.add_argument("--coarse", type=int, default=8)
+    ap.add_argument("--coarse", type=int, default=16)
     ap.add_argument("--j-tol", type=float, default=None,
                     help="refine where corner J* differ by more than this fraction of the max")
-    ap.add_argument("--no-range-edge", action="store_true")
+    ap.add_argument("--range-edge", action="store_true",
+                    help="also refine at the operating range's edge")
     ap.add_argument("--halo", type=int, default=1)
     ap.add_argument("--full", type=Path, default=None,
                     help="the full map's NetCDF: read if it exists, else written there")
@@ -80,7 +81,7 @@ def main() -> int:
         if args.full is not None:
             save_dataset(full, args.full)
     rule = Refinement(coarse=args.coarse, j_tol=args.j_tol,
-                      range_edge=not args.no_range_edge, halo=args.halo)
+                      range_edge=args.range_edge, halo=args.halo)
     t0 = time.perf_counter()
     ad = sweep(preset, flows, axes, refine=rule, **kw)
     ad_s = time.perf_counter() - t0

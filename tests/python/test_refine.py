@@ -24,7 +24,7 @@ def _adaptive_on(truth: dict[str, np.ndarray], rule: Refinement):
             for k in truth:
                 values[k][p] = truth[k][p]
         stride, points = next_points(shape, stride, values, run, rule)
-    fill(shape, rule.coarse, values, run)
+    fill(shape, rule, values, run)
     return values, run
 
 

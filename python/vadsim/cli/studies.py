@@ -162,11 +162,14 @@ def _add_map(sub: Subparsers, parents: Parents) -> None:
     mp.add_argument("--values2", type=float, nargs=2, metavar=("FROM", "TO"))
     mp.add_argument("--steps2", type=int, default=5)
     mp.add_argument("--adaptive", action="store_true",
-                    help="run a coarse lattice, then refine only where regimes, the operating "
-                    "range's edge (or J*, with --j-tol) change between neighbours; the rest "
+                    help="run a coarse lattice, then refine only where regimes (or the "
+                    "operating range's edge, or J*: see below) change between neighbours; the rest "
                     "is filled from the agreeing cell around it (variable 'simulated')")
-    mp.add_argument("--coarse", type=int, default=8,
-                    help="adaptive: stride of the first lattice, a power of two (8)")
+    mp.add_argument("--coarse", type=int, default=16,
+                    help="adaptive: stride of the first lattice, a power of two (16)")
+    mp.add_argument("--range-edge", action="store_true",
+                    help="adaptive: also refine where the operating range (J* within 10 %% of "
+                    "its row's best) begins or ends")
     mp.add_argument("--j-tol", type=float, default=None,
                     help="adaptive: also refine where J* differs by more than this fraction "
                     "of the map's max between neighbours (default: off)")
@@ -287,7 +290,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
     if args.adaptive:
         from vadsim.studies.refine import Refinement
 
-        refine = Refinement(coarse=args.coarse, j_tol=args.j_tol)
+        refine = Refinement(coarse=args.coarse, j_tol=args.j_tol, range_edge=args.range_edge)
     t0 = time.perf_counter()
     ds = sweep(args.preset, _flows(args), axes, refine=refine, **_sweep_options(args))
     elapsed = time.perf_counter() - t0

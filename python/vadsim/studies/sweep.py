@@ -1029,7 +1029,7 @@ def _assemble(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dic
     saying which were run)."""
     data, run = _fill(grid, chunks, done, partial=grid.refine is not None)
     if grid.refine is not None:
-        fill(grid.shape, grid.refine.coarse, data, run)
+        fill(grid.shape, grid.refine, data, run)
     dims = (*grid.axes, "flow_gpm")
     ds = xr.Dataset(coords=_coords(grid))
     for name, desc in FEATURES.items():
