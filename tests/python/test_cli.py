@@ -212,6 +212,23 @@ def test_blind_lists_classes_and_refuses_an_unknown_one(capsys, tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+def test_optimise_with_sample_maximises_the_robust_objective(monkeypatch, capsys):
+    """``design optimise --sample N`` is the robust optimiser over N constants, not the
+    single-point one."""
+    import vadsim.studies.robust as robust
+
+    seen = {}
+
+    def stop(preset, n_sample, **kw):
+        seen["n"] = n_sample
+        raise RuntimeError("robust optimiser reached")
+
+    monkeypatch.setattr(robust, "robust_optimise", stop)
+    with pytest.raises(RuntimeError, match="robust optimiser reached"):
+        main(["design", "optimise", "--sample", "9", "--quiet"])
+    assert seen == {"n": 9}
+
+
 def test_a_study_with_sample_is_judged_over_the_constants(tmp_path, capsys):
     """``design force --sample N`` goes to the sample, not to the single-point study."""
     out = tmp_path / "force.csv"

@@ -200,8 +200,9 @@ def _add_design(sub: Subparsers, parents: Parents) -> None:
     de.add_argument("--seed", type=int, default=1, help="optimise: random seed (1)")
     de.add_argument("--sample", type=int, default=None, choices=[1, 5, 9],
                     help="judge every design over this many points of the plausible "
-                    "(theta0, gap) region: mean and worst case (default: robust 5, the "
-                    "others at the preset's constants only)")
+                    "(theta0, gap) region: mean and worst case; 'optimise --sample N' "
+                    "maximises the robust objective, as 'robust' does (default: robust 5, "
+                    "the others at the preset's constants only)")
     de.add_argument("--store", default=None, help="study: resumable chunk folder")
     de.add_argument("--out", default=None, help="save the map (NetCDF) or the designs (CSV)")
     _add_plot_option(de)
@@ -318,8 +319,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
 def _cmd_design(args: argparse.Namespace) -> int:
     from vadsim.studies import design
 
-    if args.study == "robust":
-        return _design_robust(args)
+    if args.study == "robust" or (args.study == "optimise" and args.sample is not None):
+        return _design_robust(args)  # an optimisation over the sample is the robust one
     if args.sample is not None and args.study != "optimise":
         return _design_over_sample(args)
     if args.study in design.STUDIES:
