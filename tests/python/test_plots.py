@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 import vadsim
 import xarray as xr
-from matplotlib.collections import LineCollection, QuadMesh
+from matplotlib.collections import LineCollection, PathCollection, QuadMesh
 from matplotlib.colors import is_color_like, to_hex
 from matplotlib.figure import Figure
 from matplotlib.image import AxesImage
@@ -367,6 +367,21 @@ def test_regime_map_colours_each_point_by_scenario(tmp_path):
     assert xmin < f[0] < f[-1] < xmax
     ymin, ymax = ax.get_ylim()
     assert ymin < KS[0] / 1000 < KS[-1] / 1000 < ymax
+
+
+def test_regime_map_marks_the_points_an_adaptive_map_ran(tmp_path):
+    ds = map_dataset()
+    ran = np.zeros(SCEN_MAP.shape, bool)
+    ran[::2, ::2] = True
+    ds["simulated"] = (("kS", "flow_gpm"), ran)
+    fig = plots.regime_map(ds, path=tmp_path / "adaptive.png")
+    saved(fig, tmp_path / "adaptive.png")
+    ax = fig.axes[0]
+    (dots,) = [c for c in ax.collections if isinstance(c, PathCollection)]
+    assert len(dots.get_offsets()) == ran.sum()
+    assert any(t.startswith("run (") and "the rest filled" in t for t in legend_texts(ax))
+    fig = plots.regime_map(ds, show_simulated=False)
+    assert not [c for c in fig.axes[0].collections if isinstance(c, PathCollection)]
 
 
 def test_regime_map_without_overlay_and_param_selection(tmp_path):

@@ -186,6 +186,7 @@ def regime_map(
     operating_range: bool = True,
     ax: Axes | None = None,
     path: str | os.PathLike[str] | None = None,
+    show_simulated: bool = True,
 ) -> Figure:
     """The impact regime over excitation frequency (x) and a design parameter (y).
 
@@ -206,6 +207,9 @@ def regime_map(
         Axes to draw into; None: a new figure.
     path
         Save the figure there (``.png``, ``.pdf`` or ``.svg``).
+    show_simulated
+        For an adaptive map (variable ``simulated``), mark the points that were run with
+        dots: the rest were filled from the agreeing cell around them.
 
     Returns
     -------
@@ -234,6 +238,11 @@ def regime_map(
         jfactor, junit = force_unit(m_ref(grid.attrs), "auto", func)
         j = np.asarray(grid["j_pos"].values, float) * jfactor
         handles += _operating_overlay(ax, x, y, j, "k", junit)
+    if show_simulated and "simulated" in grid:
+        ran = np.asarray(grid["simulated"].values, bool)
+        xx, yy = np.broadcast_to(x, ran.shape), np.broadcast_to(y[:, None], ran.shape)
+        handles.append(ax.scatter(xx[ran], yy[ran], s=4.0, c="k", alpha=0.5, linewidths=0,
+                                  zorder=3, label=f"run ({ran.mean():.0%}; the rest filled)"))
     ax.grid(False)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
