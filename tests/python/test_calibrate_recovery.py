@@ -46,7 +46,8 @@ def test_calibration_recovers_l0_and_wob_within_5_percent(campaign):
     res = calibrate(campaign, ("l0", "wob"), start={"l0": 0.74, "wob": 700.0},
                     bounds={"l0": (0.66, 0.74), "wob": (700.0, 1400.0)}, n_global=16,
                     n_starts=2, alias_stripes=2, alias_grid=14, alias_refine=9, max_nfev=5,
-                    cycles=CYCLES, analyse_cycles=ANALYSE)
+                    cycles=CYCLES, analyse_cycles=ANALYSE,
+                    interval_method="profile")  # the bootstrap is tested below
     err = {n: res.estimates[n] / TRUTH[n] - 1 for n in TRUTH}
     assert all(abs(e) <= 0.05 for e in err.values()), (res.summary(), err)
     assert res.cost_after < res.cost_before

@@ -78,7 +78,7 @@ def test_calibration_recovers_a_changed_excitation(campaign):
     camp = synthetic_campaign("7in-cde", (200.0, 450.0, 600.0), overrides={"Fo": truth},
                               noise_g=0.3, seed=7, **SHORT)
     res = calibrate(camp, ["Fo"], start={"Fo": 300.47}, bounds={"Fo": (200.0, 600.0)},
-                    n_global=24, n_starts=2, **SHORT)
+                    n_global=24, n_starts=2, interval_method="profile", **SHORT)
     assert res.estimates["Fo"] == pytest.approx(truth, rel=0.05)
     assert res.cost_after < res.cost_before
     assert math.isfinite(res.stderr["Fo"])
