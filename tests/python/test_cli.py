@@ -212,6 +212,20 @@ def test_blind_lists_classes_and_refuses_an_unknown_one(capsys, tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+def test_map_json_gives_a_record_per_point_and_says_which_an_adaptive_map_ran(capsys):
+    args = ["map", "--param", "gap_ratio", "--values", "0.85", "1.5", "--steps", "5",
+            "--flows", "200", "650", "90", "--cycles", "40", "--analyse", "20", "--quiet",
+            "--json"]
+    assert main(args) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert len(rows) == 5 * 6 and {"gap_ratio", "flow_gpm", "scenario", "j_pos"} <= set(rows[0])
+    bigger = [*args[:7], "9", "--flows", "200", "650", "30", *args[12:]]
+    assert main([*bigger, "--adaptive", "--coarse", "4"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert len(rows) == 9 * 16 and all(isinstance(r["simulated"], bool) for r in rows)
+    assert 0 < sum(r["simulated"] for r in rows) < 9 * 16
+
+
 def test_optimise_with_sample_maximises_the_robust_objective(monkeypatch, capsys):
     """``design optimise --sample N`` is the robust optimiser over N constants, not the
     single-point one."""

@@ -296,6 +296,13 @@ def _cmd_map(args: argparse.Namespace) -> int:
     ds = sweep(args.preset, _flows(args), axes, refine=refine, **_sweep_options(args))
     elapsed = time.perf_counter() - t0
     _finish_dataset(ds, args)
+    if args.json:  # one record per point, as 'sweep --json' gives
+        names = ["z_spring", "z_impact", "z_off_bottom", "z_on_bottom", "scenario", "j_pos",
+                 "j_pos_kN", "x1_peak_mean_g", "periodicity"]
+        names += ["simulated"] if "simulated" in ds else []
+        df = ds[names].to_dataframe()
+        print(df.reset_index().to_json(orient="records"))
+        return 0
     n = int(np.prod([ds.sizes[d] for d in ds.scenario.dims]))
     if refine is not None:
         ran = int(ds["simulated"].sum())
