@@ -972,6 +972,26 @@ def test_claim_never_written_is_taken_over(tmp_path: Path, filled_store: Path,
     xr.testing.assert_identical(ds, base_map)
 
 
+@pytest.mark.parametrize("when", ["before", "after"])
+def test_ctrl_c_while_claiming_leaves_no_claim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                              when: str) -> None:
+    """Ctrl-C just before or just after a claim comes into being: the interrupted sweep
+    releases it (a loaded CI run once left an empty claim that Ctrl-C did not release)."""
+    real_link = os.link
+
+    def interrupted(src: Any, dst: Any, *args: Any, **kw: Any) -> None:
+        if str(dst).endswith(".claim"):
+            if when == "after":
+                real_link(src, dst, *args, **kw)
+            raise KeyboardInterrupt
+        real_link(src, dst, *args, **kw)
+
+    monkeypatch.setattr(vsweep.os, "link", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        sweep("7in-cde", FLOWS, {"gap_ratio": GAPS}, store=tmp_path / "s", **QUIET)
+    assert not list((tmp_path / "s").glob("*.claim*"))
+
+
 def test_claim_left_on_a_finished_chunk_is_cleared(tmp_path: Path, filled_store: Path,
                                                    base_map: xr.Dataset,
                                                    monkeypatch: pytest.MonkeyPatch) -> None:

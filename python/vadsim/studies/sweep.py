@@ -656,20 +656,29 @@ class _Store:
         return self.path / f"{key}.claim"
 
     def claim(self, chunk: _Chunk) -> bool:
-        """Claim ``chunk`` for this process (True), or find it held by a live one (False)."""
+        """Claim ``chunk`` for this process (True), or find it held by a live one (False).
+
+        The owner record is written to a private file first and hard-linked into place, so a
+        claim never exists without its owner; and the claim is registered as held before it
+        exists, so a Ctrl-C at any moment leaves none that :meth:`release_all` does not
+        remove (under load, one landed between creating an empty claim and writing it)."""
         path = self._claim_path(chunk.key)
         for _ in range(2):
             token = uuid.uuid4().hex
+            record = path.with_name(f"{path.name}.new-{token}")
             try:
-                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-            except FileExistsError:
-                if not self._take_over_if_stale(path, chunk):
-                    return False
-                continue
-            with os.fdopen(fd, "w") as fh:
-                json.dump({"pid": os.getpid(), "host": self.host, "time": time.time(),
-                           "token": token}, fh)
-            self._held[chunk.key] = token
+                record.write_text(json.dumps({"pid": os.getpid(), "host": self.host,
+                                              "time": time.time(), "token": token}))
+                self._held[chunk.key] = token
+                try:
+                    os.link(record, path)
+                except FileExistsError:
+                    self._held.pop(chunk.key, None)
+                    if not self._take_over_if_stale(path, chunk):
+                        return False
+                    continue
+            finally:
+                record.unlink(missing_ok=True)
             return True
         return False
 
