@@ -62,6 +62,7 @@ __all__ = [
     "Measurement",
     "ModelChange",
     "event_residuals",
+    "fine_rate_hz",
     "measure_event",
     "recorded_features",
     "residual_table",
@@ -137,7 +138,8 @@ def sensor_groups(campaign: Campaign) -> dict[float, list[str]]:
     return groups
 
 
-def _fine_rate_hz(campaign: Campaign) -> float:
+def fine_rate_hz(campaign: Campaign) -> float:
+    """The rate (Hz) a run is recorded at to feed every sensor of ``campaign``."""
     return SIMULATION_OVERSAMPLING * max(s.rate_hz for s in campaign.sensors.values())
 
 
@@ -148,7 +150,7 @@ def run_event(campaign: Campaign, event: Event, settings: RunSettings) -> Simula
     enough for every sensor of the campaign
     (:data:`vadsim.signals.sensor.SIMULATION_OVERSAMPLING` times the fastest sensor's rate)."""
     return settings.run(event.flow_gpm, wob_klbf=event.wob_klbf, record="window",
-                        output_rate_hz=_fine_rate_hz(campaign))
+                        output_rate_hz=fine_rate_hz(campaign))
 
 
 def summary_event(campaign: Campaign, event: Event, settings: RunSettings) -> EventSimulation:
@@ -229,7 +231,7 @@ def measure_event(
     """
     if not (isinstance(phases, int) and phases >= 1):
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
-    fine = _fine_rate_hz(campaign)
+    fine = fine_rate_hz(campaign)
     rng = np.random.default_rng(seed)
     sensor_feats: dict[str, Feature] = {}
     full_feats: dict[str, Feature] = {}
@@ -528,7 +530,7 @@ class CampaignEvaluator:
         try:
             settings = change.apply(self.settings, ev.flow_gpm)
             return self.cache.key("event-simulation", self.resolution, settings, ev.flow_gpm,
-                                  float(ev.wob_klbf), _fine_rate_hz(self.campaign),
+                                  float(ev.wob_klbf), fine_rate_hz(self.campaign),
                                   self.campaign.sensors, self.phases, self.folded)
         except (Uncacheable, ValueError):
             return None

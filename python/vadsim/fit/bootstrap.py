@@ -25,10 +25,9 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from vadsim.campaigns.synthetic import record_run
-from vadsim.compare import CampaignEvaluator, EventSimulation, recorded_features
+from vadsim.compare import CampaignEvaluator, EventSimulation, fine_rate_hz, recorded_features
 from vadsim.model.change import ModelChange
 from vadsim.model.simulate import SimulationResult, SolverError
-from vadsim.signals.sensor import SIMULATION_OVERSAMPLING
 
 __all__ = ["BOOTSTRAP_RUNS", "cost_rises"]
 
@@ -53,7 +52,7 @@ def _runs(evaluator: CampaignEvaluator, change: ModelChange, eid: str, n_runs: i
     settings = change.apply(evaluator.settings, ev.flow_gpm)
     n_an = math.ceil(_recording_s(evaluator, eid) * settings.f_exc_hz(ev.flow_gpm))
     settle = settings.cycles - settings.analyse_cycles
-    fine = SIMULATION_OVERSAMPLING * max(s.rate_hz for s in evaluator.campaign.sensors.values())
+    fine = fine_rate_hz(evaluator.campaign)
     out = []
     for k in range(n_runs):
         try:
@@ -102,6 +101,7 @@ def cost_rises(evaluator: CampaignEvaluator, change: ModelChange,
     rng = np.random.default_rng(seed)
     eids = evaluator.event_ids
     runs = {e: _runs(evaluator, change, e, n_runs) for e in eids}
+    seconds = {e: _recording_s(evaluator, e) for e in eids}
     rises: dict[str, list[float]] = {g: [] for g in groups}
     for b in range(n_boot):
         z_parts: list[list[np.ndarray]] = [[] for _ in probes]
@@ -110,7 +110,7 @@ def cost_rises(evaluator: CampaignEvaluator, change: ModelChange,
             rec = record_run(runs[e][b % len(runs[e])], evaluator.campaign.sensors,
                              event_id=e, flow_gpm=ev.flow_gpm, wob_klbf=ev.wob_klbf,
                              phase=float(rng.uniform()), noise_g=noise_g, rng=rng,
-                             duration_s=_recording_s(evaluator, e))
+                             duration_s=seconds[e])
             target = recorded_features(evaluator.campaign, rec,
                                        evaluator.settings.f_exc_hz(ev.flow_gpm),
                                        folded=evaluator.folded)
