@@ -10,6 +10,9 @@
 #include <cstring>
 #include <vector>
 
+#include <cvode/cvode.h>
+#include <dlfcn.h>
+
 #include "vadsim/integrator.hpp"
 
 int main(int argc, char** argv) {
@@ -51,6 +54,9 @@ int main(int argc, char** argv) {
   }
   std::sort(ms.begin(), ms.end());
   const auto& s = r.stats;
+  Dl_info cvode_lib{};
+  const bool found = dladdr(reinterpret_cast<void*>(&CVodeCreate), &cvode_lib) != 0;
+  std::printf("CVODE from %s\n", found && cvode_lib.dli_fname ? cvode_lib.dli_fname : "?");
   std::printf("7in CDE, %.0f gal/min, 400 cycles, rtol %.0e, output %.0f Hz, summary %.0f Hz\n",
               flow, rtol, out_rate, sum_rate);
   std::printf("runs %d  median %.2f ms  min %.2f ms  max %.2f ms\n", runs, ms[ms.size() / 2],

@@ -157,8 +157,7 @@ void Model::evaluate(double t, double flow_gpm, const Eigen::Ref<const State>& y
     }
     out.fc[s] = F;
   }
-  double dfh;
-  out.fh = exc_.force(t, flow_gpm, u[1] - u[2], dfh);
+  out.fh = exc_.force(t, flow_gpm, u[1] - u[2]);
   double ddrag;
   out.f[1] += out.fh - exc_.drag(v[1], ddrag);
   if (!extras_.empty()) {

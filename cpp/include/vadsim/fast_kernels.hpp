@@ -32,7 +32,11 @@ class SchurLU {
 
  private:
   double lu_[kDof][kDof];   ///< factors of S, row-major
-  double a21_[kDof][kDof];  ///< A21, row-major
+  /// A21 with its rows in pivot order, so that a solve permutes b once and no intermediate.
+  double a21_[kDof][kDof];
+  /// 1 / U(i, i): a solve runs some seven times per factorisation, and the back substitution
+  /// is a chain of dependent steps in which a division's latency would dominate.
+  double inv_diag_[kDof];
   double gamma_ = 0;
   int perm_[kDof];
 };
