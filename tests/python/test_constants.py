@@ -73,6 +73,24 @@ def test_bands_and_peaks_are_scored_against_the_published_numbers():
     assert [m["target"] for m in best["missed"]] == ["CDE 300 gal/min"]
 
 
+def test_the_spring_study_is_scored_as_the_change_of_max_j_across_ks():
+    """Chapter 5: over kS 39.37-787.4 the peak J* "hardly changes" (|change| <= 15 %)."""
+    from vadsim.studies.constants import SPRING_J_TOL
+
+    base = _grid([_published_scenarios(0.0), _published_scenarios(0.0)], np.ones(FLOWS.size))
+    designs = {name: base.copy() for name in ("force", "gap", "recommended", "spring_lo")}
+    hi = base.copy()
+    hi["j_pos"] = base.j_pos * xr.DataArray([1.10, 1.30], dims="theta0")  # +10 %; +30 %
+    designs["spring_hi"] = hi
+    scores = score_targets(base, xr.Dataset(), designs, tool="7in")
+    spring = scores[scores.target == "spring_j"].set_index("theta0")
+    assert list(spring.value) == [pytest.approx(0.10), pytest.approx(0.30)]
+    assert list(spring.ok) == [True, False] and (spring.tolerance == SPRING_J_TOL).all()
+    # a scan written before the spring ends were swept scores the other designs alone
+    old = {k: v for k, v in designs.items() if not k.startswith("spring")}
+    assert "spring_j" not in set(score_targets(base, xr.Dataset(), old).target)
+
+
 def test_best_constants_breaks_ties_by_the_errors():
     rows = []
     for t, errs in ((0.0, (0.5, 2.0)), (1.0, (0.9, 0.9)), (2.0, (3.0, 4.0))):
@@ -115,9 +133,15 @@ def test_the_reproduction_lists_every_published_number_once_and_explains_every_m
 
     scores = scan_constants("7in-cde", [2.264, 2.553], [1.0], flows=FLOWS[::5], designs=False,
                             cycles=40, analyse_cycles=20, workers=2, progress=False).scores
+    maps = {"reference": {"gap": _map("gap_ratio", [1, 2, 3, 4, 5], rare=6),
+                          "spring": _map("kS", [1, 2, 3, 4, 5])}}
     rep = reproduce("7in-cde", None, scores, cycles=40, analyse_cycles=20, workers=2,
-                    progress=False)
+                    progress=False, maps=maps)
     t = rep.table
+    counted = t.set_index("id").loc[["parametric.csv:maps:regime6",
+                                     "parametric.csv:maps:regimes"]]
+    assert list(counted.reference) == ["2 of 400", "5; 6"]
+    assert (counted.status_reference == "reproduced").all()
     assert t.id.is_unique
     n_params = sum(len(v) for v in table_2_1().values())
     assert (t.source == "parameters.csv").sum() == n_params
@@ -143,3 +167,36 @@ def test_the_reproduction_lists_every_published_number_once_and_explains_every_m
     assert "ok=False" not in text and "| regime 1 band" in text
     files = tmp_path / "reproduction"
     assert (files / "reproduction.csv").is_file() and (files / "peaks-reference.png").is_file()
+    assert (files / "gap-map-reference.png").is_file()
+
+
+def _map(param: str, regimes: list[int], rare: int | None = None) -> xr.Dataset:
+    """A 20 x 20 map (param x flow) tiled with ``regimes``, plus two points of ``rare``."""
+    values = np.linspace(1.0, 2.0, 20)
+    flows = np.linspace(200.0, 650.0, 20)
+    sc = np.array(regimes, dtype=float)[np.arange(400) % len(regimes)].reshape(20, 20)
+    if rare is not None:
+        sc[3, 7] = sc[11, 2] = rare
+    dims = (param, "flow_gpm")
+    return xr.Dataset({"scenario": (dims, sc), "j_pos": (dims, np.ones_like(sc)),
+                       "error": (dims, np.full(sc.shape, ""))},
+                      coords={param: values, "flow_gpm": flows})
+
+
+def test_map_counts_name_what_the_maps_hold_and_why_a_count_misses():
+    from vadsim.studies.reproduction import _map_rows, map_regime_counts
+
+    gap = _map("gap_ratio", [1, 3, 4, 5])
+    gap["error"][0, 0] = "CVode failed"  # a failed run is not a point of any regime
+    assert map_regime_counts(gap) == {1: 99, 3: 100, 4: 100, 5: 100}
+    rows = {r["id"].split(":")[-1]: r for r in _map_rows(
+        ["reference"], {"reference": {"gap": gap, "spring": _map("kS", [1, 2, 3])}})}
+    assert rows["regime6"]["reference"] == "0 of 399"
+    assert rows["regime6"]["status_reference"] == "missed"
+    assert "gap_ratio 1-2 in 20 values x 20 flows" in rows["regime6"]["reason"]
+    assert rows["regimes"]["reference"] == "3; 4"
+    assert rows["regimes"]["status_reference"] == "missed"
+    assert "spring 1: 134, 2: 133, 3: 133" in rows["regimes"]["reason"]
+    none = {r["id"].split(":")[-1]: r for r in _map_rows(["reference"], {})}
+    assert none["regime6"]["status_reference"] == "not measured"
+    assert "vadsim thesis --maps" in none["regimes"]["reason"]

@@ -73,6 +73,13 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
                     "measured on its scores, its maps go into the report")
     th.add_argument("--out", default=None, metavar="DIR",
                     help="write REPRODUCTION.md, reproduction.csv and the figures there")
+    th.add_argument("--maps", default=None, metavar="DIR",
+                    help="run (or read) chapter 5's gap and spring maps per preset in DIR and "
+                    "measure the dissertation's regime counts on them (about 17,500 runs a "
+                    "preset, resumable; a second call reads them)")
+    th.add_argument("--spring-steps", type=int, default=None, metavar="N",
+                    help="kS values of the spring map (default 96; the published step "
+                    "gives 948)")
     th.set_defaults(func=_cmd_thesis)
     _add_constants(sub, parents)
 
@@ -541,9 +548,22 @@ def _cmd_thesis(args: argparse.Namespace) -> int:
         if (folder / "best.json").is_file():
             best = json.loads((folder / "best.json").read_text())
     thesis = None if args.thesis_preset == "none" else args.thesis_preset
+    maps = None
+    if args.maps is not None:
+        from vadsim.studies.reproduction import SPRING_MAP_STEPS, thesis_maps
+
+        steps = SPRING_MAP_STEPS if args.spring_steps is None else args.spring_steps
+        if steps < 2:
+            raise ValueError(f"--spring-steps {steps}: the spring map needs at least 2 kS "
+                             "values")
+        presets = {"reference": args.reference, **({"thesis": thesis} if thesis else {})}
+        maps = {lab: thesis_maps(name, args.maps, spring_steps=steps, cycles=args.cycles,
+                                 analyse_cycles=args.analyse, workers=args.workers,
+                                 progress=not args.quiet)
+                for lab, name in presets.items()}
     rep = reproduce(args.reference, thesis, scan, cycles=args.cycles,
                     analyse_cycles=args.analyse, workers=args.workers,
-                    progress=not args.quiet)
+                    progress=not args.quiet, maps=maps)
     with pandas_display():
         print(rep.counts().to_string())
         missed = rep.table[(rep.table[[f"status_{lab}" for lab in rep.presets]] == "missed")
@@ -557,6 +577,6 @@ def _cmd_thesis(args: argparse.Namespace) -> int:
         path = write_reproduction_report(
             rep, args.out, args.scan, best,
             command="vadsim thesis" + (f" --scan {args.scan}" if args.scan else "")
-            + f" --out {args.out}")
+            + (f" --maps {args.maps}" if args.maps else "") + f" --out {args.out}")
         print(f"\nwrote {path}")
     return 0

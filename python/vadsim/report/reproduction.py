@@ -14,11 +14,13 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+import matplotlib.pyplot as plt
 import pandas as pd
 
 from vadsim.model.presets import get_preset
-from vadsim.plots import peaks_vs_flow
+from vadsim.plots import peaks_vs_flow, regime_map
 from vadsim.report.render import render, write
+from vadsim.studies.design import STUDIES
 from vadsim.studies.reproduction import Reproduction
 
 __all__ = ["write_reproduction_report"]
@@ -77,6 +79,12 @@ def write_reproduction_report(rep: Reproduction, folder: str | os.PathLike[str],
             peaks_vs_flow(sweeps["cde"], reference="thesis-7in-cde", path=files / name)
         figures[f"x1 peaks along flow, {rep.presets[lab]}, with the dissertation's"] = (
             f"reproduction/{name}")
+    for lab, maps in rep.maps.items():
+        for study, ds in maps.items():
+            name = f"{study}-map-{lab}.png"
+            plt.close(regime_map(ds, path=files / name))
+            figures[f"{study} map (chapter 5), {rep.presets[lab]}: regimes over excitation "
+                    f"frequency and {STUDIES[study].parameter}"] = f"reproduction/{name}"
     if scan_dir is not None:
         for png in ("constants-maps.png", "target-maps.png"):
             src = Path(scan_dir) / png

@@ -39,6 +39,8 @@ from vadsim.studies.thesis import compare_peaks, compare_regimes
 
 __all__ = [
     "DESIGN_TARGETS",
+    "SPRING_DESIGNS",
+    "SPRING_J_TOL",
     "ConstantScan",
     "band_scores",
     "best_constants",
@@ -67,6 +69,17 @@ DESIGN_TARGETS: dict[str, tuple[dict[str, float], str, float]] = {
 }
 """Chapter 5's ratio targets: ``name: (design, "j" or "range", published ratio)``; the gap
 ratio multiplies the scanned gap."""
+
+SPRING_J_TOL = 0.15
+"""The spring study's "peak J* hardly changes" (kS over its published range): the change of
+max J* from the lowest to the highest kS must be within this fraction."""
+
+SPRING_DESIGNS: dict[str, dict[str, float]] = {
+    "spring_lo": {"kS": STUDIES["spring"].lo * STUDIES["spring"].scale},
+    "spring_hi": {"kS": STUDIES["spring"].hi * STUDIES["spring"].scale},
+}
+"""The two ends of the spring study: the target ``spring_j`` is max J* at the highest kS over
+that at the lowest, minus 1 (published: about 0)."""
 
 
 @dataclass
@@ -134,8 +147,9 @@ def scan_constants(
         The CDE sweep's flows (default 200-650 gal/min every 10, the resolution of the
         published regime bands); the RC sweep runs at the RC field events' flows.
     design_every
-        The design sweeps (three per point, the costliest part) run on every
-        ``design_every``-th theta0 and gap ratio.
+        The design sweeps (five per point: force, gap, recommended and the two ends of the
+        spring study; the costliest part) run on every ``design_every``-th theta0 and gap
+        ratio.
     designs
         False: no design sweeps (no J* ratio targets).
     cycles, analyse_cycles
@@ -175,7 +189,7 @@ def scan_constants(
         td, gd = th[::design_every], gr[::design_every]
         for name, design in (("force", DESIGN_TARGETS["force_j"][0]),
                              ("gap", DESIGN_TARGETS["gap_j"][0]),
-                             ("recommended", RECOMMENDED)):
+                             ("recommended", RECOMMENDED), *SPRING_DESIGNS.items()):
             sweeps[name] = grid(pr.name, q, td, gd, design)
     scores = score_targets(cde, rc, sweeps, tool=pr.tool)
     settings = dict(preset=pr.name, theta0=th.tolist(), gap_ratio=gr.tolist(), flows=q.tolist(),
@@ -264,6 +278,14 @@ def _design_rows(one: xr.Dataset, designs: Mapping[str, xr.Dataset], t: float, g
         err = abs(ratio - published) if math.isfinite(ratio) else math.inf
         out.append(dict(group="design ratio", target=target, value=round(ratio, 3),
                         published=published, error=err, tolerance=tol, ok=bool(err <= tol)))
+    if set(SPRING_DESIGNS) <= set(designs):  # scans written before the spring ends lack them
+        j_lo, _ = _j_and_width(designs["spring_lo"].sel(theta0=t, gap_ratio=g))
+        j_hi, _ = _j_and_width(designs["spring_hi"].sel(theta0=t, gap_ratio=g))
+        ratio = j_hi / j_lo - 1 if j_lo > 0 else math.nan
+        err = abs(ratio) if math.isfinite(ratio) else math.inf
+        out.append(dict(group="design ratio", target="spring_j", value=round(ratio, 3),
+                        published=0.0, error=err, tolerance=SPRING_J_TOL,
+                        ok=bool(err <= SPRING_J_TOL)))
     return out
 
 
