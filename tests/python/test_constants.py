@@ -197,6 +197,14 @@ def test_map_counts_name_what_the_maps_hold_and_why_a_count_misses():
     assert rows["regimes"]["reference"] == "3; 4"
     assert rows["regimes"]["status_reference"] == "missed"
     assert "spring 1: 134, 2: 133, 3: 133" in rows["regimes"]["reason"]
+    assert "spring map has 3 regimes at 20 values, not the published 948" in (
+        rows["regimes"]["reason"])
+    extra = _map("kS", [1, 2, 3, 4, 5], rare=6)  # one regime more than published
+    rows = {r["id"].split(":")[-1]: r for r in _map_rows(
+        ["reference"], {"reference": {"gap": _map("gap_ratio", [1, 2, 3, 4, 5], rare=6),
+                                      "spring": extra}})}
+    assert rows["regimes"]["reference"] == "6; 6"
+    assert "6 regimes, the rarest regime 6 in 2 of 400 points" in rows["regimes"]["reason"]
     none = {r["id"].split(":")[-1]: r for r in _map_rows(["reference"], {})}
     assert none["regime6"]["status_reference"] == "not measured"
     assert "vadsim thesis --maps" in none["regimes"]["reason"]
