@@ -205,6 +205,16 @@ def test_map_counts_name_what_the_maps_hold_and_why_a_count_misses():
                                       "spring": extra}})}
     assert rows["regimes"]["reference"] == "6; 6"
     assert "6 regimes, the rarest regime 6 in 2 of 400 points" in rows["regimes"]["reason"]
+    # a code outside Table 4.2 (7: spring impacts only) is shown, not counted as a regime
+    spring_only = _map("kS", [1, 2, 3, 4, 5], rare=7)
+    assert set(map_regime_counts(spring_only)) == {1, 2, 3, 4, 5}
+    assert map_regime_counts(spring_only, table_4_2=False)[7] == 2
+    rows = {r["id"].split(":")[-1]: r for r in _map_rows(
+        ["reference"], {"reference": {"gap": _map("gap_ratio", [1, 2, 3, 4, 5], rare=6),
+                                      "spring": spring_only}})}
+    assert rows["regimes"]["status_reference"] == "reproduced"
+    assert "7 (spring impacts only, not one of Table 4.2's six): 2" in (
+        rows["regimes"]["reason"])
     none = {r["id"].split(":")[-1]: r for r in _map_rows(["reference"], {})}
     assert none["regime6"]["status_reference"] == "not measured"
     assert "vadsim thesis --maps" in none["regimes"]["reason"]
