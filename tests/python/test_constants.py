@@ -183,8 +183,11 @@ def _map(param: str, regimes: list[int], rare: int | None = None) -> xr.Dataset:
                       coords={param: values, "flow_gpm": flows})
 
 
-def test_map_counts_name_what_the_maps_hold_and_why_a_count_misses():
-    from vadsim.studies.reproduction import _map_rows, map_regime_counts
+def test_map_counts_name_what_the_maps_hold_and_why_a_count_misses(tmp_path):
+    from vadsim.studies.reproduction import _map_rows, map_regime_counts, thesis_maps
+
+    with pytest.raises(ValueError, match="spring_steps = 1 must be an integer >= 2"):
+        thesis_maps("7in-cde", tmp_path, spring_steps=1)
 
     gap = _map("gap_ratio", [1, 3, 4, 5])
     gap["error"][0, 0] = "CVode failed"  # a failed run is not a point of any regime

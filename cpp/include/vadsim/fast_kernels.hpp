@@ -32,7 +32,7 @@ class SchurLU {
 
  private:
   double lu_[kDof][kDof];   ///< factors of S, row-major
-  /// A21 with its rows in pivot order, so that a solve permutes b once and no intermediate.
+  /// A21 with its rows in pivot order: a solve reads b in that order and needs no permuted copy.
   double a21_[kDof][kDof];
   /// 1 / U(i, i): a solve runs some seven times per factorisation, and the back substitution
   /// is a chain of dependent steps in which a division's latency would dominate.

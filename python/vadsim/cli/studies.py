@@ -553,9 +553,6 @@ def _cmd_thesis(args: argparse.Namespace) -> int:
         from vadsim.studies.reproduction import SPRING_MAP_STEPS, thesis_maps
 
         steps = SPRING_MAP_STEPS if args.spring_steps is None else args.spring_steps
-        if steps < 2:
-            raise ValueError(f"--spring-steps {steps}: the spring map needs at least 2 kS "
-                             "values")
         presets = {"reference": args.reference, **({"thesis": thesis} if thesis else {})}
         maps = {lab: thesis_maps(name, args.maps, spring_steps=steps, cycles=args.cycles,
                                  analyse_cycles=args.analyse, workers=args.workers,

@@ -596,6 +596,9 @@ def thesis_maps(preset: str, folder: str | os.PathLike[str], *,
     (``<preset>-<study>.nc``, same axis and run length) is read, not run again; an
     interrupted one resumes from its store (``<preset>-<study>.store``).
     """
+    if not (isinstance(spring_steps, int) and spring_steps >= 2):
+        raise ValueError(f"spring_steps = {spring_steps!r} must be an integer >= 2 (kS values "
+                         "of the spring map)")
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     maps = {}
