@@ -9,11 +9,10 @@ bool SchurLU::factor(const double* a) {
   constexpr int n = kDof;
   auto at = [a](int i, int j) { return a[j * kState + i]; };
   gamma_ = -at(0, n);
-  double a21[n][n];
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) {
-      a21[i][j] = at(n + i, j);
-      lu_[i][j] = at(n + i, n + j) + gamma_ * a21[i][j];
+      a21_[i][j] = at(n + i, j);
+      lu_[i][j] = at(n + i, n + j) + gamma_ * a21_[i][j];
     }
   for (int i = 0; i < n; ++i) perm_[i] = i;
   for (int k = 0; k < n; ++k) {
@@ -32,32 +31,32 @@ bool SchurLU::factor(const double* a) {
       std::swap(perm_[k], perm_[p]);
     }
     const double inv = 1.0 / lu_[k][k];
-    inv_diag_[k] = inv;
     for (int i = k + 1; i < n; ++i) {
       const double l = lu_[i][k] * inv;
       lu_[i][k] = l;
       for (int j = k + 1; j < n; ++j) lu_[i][j] -= l * lu_[k][j];
     }
   }
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) a21_[i][j] = a21[perm_[i]][j];
   return true;
 }
 
 void SchurLU::solve(const double* b, double* x) const {
   constexpr int n = kDof;
-  double y[n], dv[n];
-  // r = P (b2 - A21 b1), then L y = r, U dv = y.
+  double r[n], y[n], dv[n];
   for (int i = 0; i < n; ++i) {
-    double s = b[n + perm_[i]];
+    double s = b[n + i];
     for (int j = 0; j < n; ++j) s -= a21_[i][j] * b[j];
+    r[i] = s;
+  }
+  for (int i = 0; i < n; ++i) {
+    double s = r[perm_[i]];
     for (int j = 0; j < i; ++j) s -= lu_[i][j] * y[j];
     y[i] = s;
   }
   for (int i = n - 1; i >= 0; --i) {
     double s = y[i];
     for (int j = i + 1; j < n; ++j) s -= lu_[i][j] * dv[j];
-    dv[i] = s * inv_diag_[i];
+    dv[i] = s / lu_[i][i];
   }
   for (int i = 0; i < n; ++i) {
     x[i] = b[i] + gamma_ * dv[i];

@@ -32,11 +32,7 @@ class SchurLU {
 
  private:
   double lu_[kDof][kDof];   ///< factors of S, row-major
-  /// A21 with its rows in pivot order: a solve reads b in that order and needs no permuted copy.
-  double a21_[kDof][kDof];
-  /// 1 / U(i, i): a solve runs some seven times per factorisation, and the back substitution
-  /// is a chain of dependent steps in which a division's latency would dominate.
-  double inv_diag_[kDof];
+  double a21_[kDof][kDof];  ///< A21, row-major
   double gamma_ = 0;
   int perm_[kDof];
 };
