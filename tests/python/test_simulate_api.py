@@ -701,9 +701,14 @@ NOTE_RE = re.compile(r"simulation interrupted at t = (\S+) s of t_end = (\S+) s,
                      r"steps")
 
 
+# A shell that starts a job in the background (``cmd &`` without job control) makes it ignore
+# SIGINT, and Python then installs no handler: the child restores Python's own.
+SIGINT_PRELUDE = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+
+
 def _child(code: str) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-c", SIGINT_PRELUDE + code], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=env)
 
 

@@ -297,7 +297,9 @@ def test_store_reuse_and_other_grid_refused(tmp_path: Path, base_map: xr.Dataset
 def _run_child_and_interrupt(store: Path, sig: int, after: int) -> tuple[set[str], str]:
     """Run the resume grid in a child process and send ``sig`` once ``after`` chunks exist."""
     kw = dict(flows=RESUME_FLOWS, gaps=RESUME_GAPS, **SHORT)
-    code = _CHILD.replace("DELAY", "0.15")
+    # A background job (``cmd &`` without job control) ignores SIGINT: restore Python's handler.
+    code = ("import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+            + _CHILD.replace("DELAY", "0.15"))
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen([sys.executable, "-c", code, str(store), json.dumps(kw)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
@@ -1031,12 +1033,15 @@ def test_ctrl_c_keeps_finished_chunks_and_rerun_computes_the_rest(
         return real(spec)
 
     monkeypatch.setattr(vsweep, "run_point", interrupting)
+    # Python's handler, even where the suite runs as a background job that ignores SIGINT.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         with pytest.raises(KeyboardInterrupt):
             sweep("7in-cde", RESUME_FLOWS, {"gap_ratio": RESUME_GAPS}, store=store, workers=1,
                   **QUIET)
     finally:
         release.set()
+        signal.signal(signal.SIGINT, previous)
     assert _chunks(store) == set(order[:n])
     assert not list(store.glob("*.claim*")) and not list(store.glob("*.tmp"))
 
