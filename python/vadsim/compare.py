@@ -5,7 +5,8 @@ is the model from the recordings, event by event and feature by feature, in unit
 recording's own spread? They answer it here, the same way, with the same failure handling:
 
 1. **run** an event at its flow and WOB (:func:`run_event`, or :func:`summary_event` when only
-   the core's full-resolution summary is needed);
+   the core's full-resolution summary is needed), continued while its window drifts (a
+   recording is steady drilling: :mod:`vadsim.model.steady`);
 2. **measure** the run through each sensor's chain, averaged over sampling phases, and at full
    resolution (:func:`measure_event`), optionally after measurement-side physics;
 3. compute the **recorded** features (:func:`recorded_features`);
@@ -49,13 +50,21 @@ from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.change import Measurement, ModelChange
 from vadsim.model.settings import RunSettings
 from vadsim.model.simulate import G, SimulationResult, SolverError
+from vadsim.model.steady import steady_run
 from vadsim.signals.features import Feature, event_features, summary_features
-from vadsim.signals.fold_features import ALT_MARK, model_fold_features, recorded_fold_features
+from vadsim.signals.fold_features import (
+    ALT_MARK,
+    model_fold_features,
+    noise_floor_g,
+    recorded_fold_features,
+)
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, analog_chain, sensor_chain
 
 __all__ = [
     "FAILED_RESIDUAL",
     "FOLDED",
+    "NOISE_SEED",
+    "NOISE_STEP_G",
     "CampaignEvaluator",
     "EventEval",
     "EventSimulation",
@@ -65,6 +74,7 @@ __all__ = [
     "fine_rate_hz",
     "measure_event",
     "recorded_features",
+    "recorded_noise_g",
     "residual_table",
     "run_event",
     "sensor_groups",
@@ -148,16 +158,18 @@ def fine_rate_hz(campaign: Campaign) -> float:
 def run_event(campaign: Campaign, event: Event, settings: RunSettings) -> SimulationResult:
     """Run the model at one event's flow and WOB, recording the steady window on a grid fine
     enough for every sensor of the campaign
-    (:data:`vadsim.signals.sensor.SIMULATION_OVERSAMPLING` times the fastest sensor's rate)."""
-    return settings.run(event.flow_gpm, wob_klbf=event.wob_klbf, record="window",
-                        output_rate_hz=fine_rate_hz(campaign))
+    (:data:`vadsim.signals.sensor.SIMULATION_OVERSAMPLING` times the fastest sensor's rate).
+    A recording is steady drilling: a run whose window still drifts is continued
+    (:func:`vadsim.model.steady.steady_run`)."""
+    return steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="window",
+                      output_rate_hz=fine_rate_hz(campaign))
 
 
 def summary_event(campaign: Campaign, event: Event, settings: RunSettings) -> EventSimulation:
     """Peaks and impacts per cycle at full resolution from the core's own steady-window summary
     (20 kHz): no time series is stored, which makes a 9.5in run 10x cheaper. What a comparison
     with the dissertation's own simulations needs."""
-    r = settings.run(event.flow_gpm, wob_klbf=event.wob_klbf, record="none")
+    r = steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="none")
     full: dict[str, Feature] = {}
     for name, s in campaign.sensors.items():
         peaks = r.window_peaks_g[:, s.dof - 1]
@@ -200,7 +212,7 @@ def measure_event(
     r: SimulationResult,
     *,
     phases: int = 8,
-    noise_g: float = 0.0,
+    noise_g: float | Mapping[str, float] = 0.0,
     seed: int | None = None,
     keep_signals: bool = False,
     measurement: Measurement | None = None,
@@ -228,9 +240,17 @@ def measure_event(
 
     ``full_features=False`` skips the full-resolution features (``full``): a comparison
     through the sensor chains does not use them, and they cost a third of the measurement.
+
+    ``noise_g`` (one value, or one per sensor name) adds each sensor's Gaussian noise to the
+    sampled series, drawn from ``seed``: a recording's window features (peaks, quantiles,
+    impacts) carry its noise, e.g. a 200 ms peak of a 1 g-noise record is the peak of signal
+    plus noise (:func:`recorded_noise_g`). Folds are taken without it: a fold averages noise
+    out.
     """
     if not (isinstance(phases, int) and phases >= 1):
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
+    noise = (dict(noise_g) if isinstance(noise_g, Mapping)
+             else dict.fromkeys(campaign.sensors, noise_g))
     fine = fine_rate_hz(campaign)
     rng = np.random.default_rng(seed)
     sensor_feats: dict[str, Feature] = {}
@@ -249,7 +269,8 @@ def measure_event(
                 s = campaign.sensors[name]
                 _, a_s, clip = sensor_chain(r.t, full[name], rate_hz=s.rate_hz,
                                             range_g=s.range_g, lowpass_hz=s.lowpass_hz,
-                                            phase=k / phases, noise_g=noise_g, rng=rng)
+                                            phase=k / phases,
+                                            noise_g=noise.get(name, 0.0), rng=rng)
                 sampled[name], clipped[name] = a_s, clip
                 if keep_signals and k == 0:
                     kept[name] = a_s
@@ -272,7 +293,8 @@ def measure_event(
 
 
 def simulate_event(campaign: Campaign, event: Event, settings: RunSettings, *,
-                   phases: int = 8, noise_g: float = 0.0, seed: int | None = None,
+                   phases: int = 8, noise_g: float | Mapping[str, float] = 0.0,
+                   seed: int | None = None,
                    keep_signals: bool = False, measurement: Measurement | None = None,
                    folded: bool | None = None) -> EventSimulation:
     """:func:`run_event` then :func:`measure_event`."""
@@ -305,6 +327,35 @@ def recorded_features(campaign: Campaign, event: Event, f_exc_hz: float, *,
     if event.features:  # summary values given next to a time series win: they are stated
         out.update(summary_features(event.features))
     return out
+
+
+def recorded_noise_g(campaign: Campaign, settings: RunSettings) -> dict[str, float]:
+    """Each sensor's noise in a campaign's recordings, g: the smallest over its events of
+    :func:`vadsim.signals.fold_features.noise_floor_g` (noise belongs to the sensor, and an
+    event whose response does not repeat only adds to the estimate). Empty for a campaign of
+    summary features only: its stated features carry no noise to imitate.
+
+    Why the model needs it: the window features of a noisy record are those of signal plus
+    noise. Measured on a written 1 g-noise campaign, the recording's own model left every
+    event at RMS z 1.0-1.6 (the x5 200 ms peak 2.7-3.5 spreads off, impacts per cycle 3.9),
+    and a diagnosis took the difference for a sensor resonance; measured with the record's
+    noise, the same model is at 0.5-0.7.
+    """
+    best: dict[str, float] = {}
+    for ev in campaign.events:
+        if ev.data is None or len(ev.data) < 2:
+            continue
+        t0 = float(ev.data["time_s"].iloc[0])
+        for rate, names in sensor_groups(campaign).items():
+            signals = {n: ev.data[f"{n}_g"].to_numpy(float) for n in names}
+            try:
+                got = noise_floor_g(signals, rate, settings.f_exc_hz(ev.flow_gpm), t0=t0)
+            except ValueError:  # too short to fold: no estimate from this event
+                continue
+            for n, v in got.items():
+                if math.isfinite(v):
+                    best[n] = min(v, best.get(n, math.inf))
+    return best
 
 
 # ------------------------------------------------------------------------------- residuals
@@ -415,6 +466,39 @@ def residual_table(sim: Mapping[str, Mapping[str, Feature]],
 
 # ------------------------------------------------------------------------- the campaign engine
 
+NOISE_SEED = 20260
+"""Seed of the noise a :class:`CampaignEvaluator` adds to the model's sampled series: one
+seed for every run (common random numbers), so two models differ by their physics."""
+
+
+NOISE_STEP_G = 0.05
+"""An estimated noise is rounded to this step (g): the estimate is good to a few per cent
+(0.29-0.33 g for 0.3 g), which is all a window feature needs, and campaigns of the same
+sensors then share their runs in a result cache."""
+
+
+def _noise_option(noise: Mapping[str, float] | bool | None, campaign: Campaign,
+                  settings: RunSettings) -> dict[str, float]:
+    if noise is None or noise is True:
+        return {k: round(v / NOISE_STEP_G) * NOISE_STEP_G
+                for k, v in recorded_noise_g(campaign, settings).items()}
+    if noise is False:
+        return {}
+    if not isinstance(noise, Mapping):
+        raise ValueError(f"noise = {noise!r} must be None, True, False or a mapping of "
+                         "sensor name to g")
+    out = {}
+    for name, v in noise.items():
+        if name not in campaign.sensors:
+            raise ValueError(f"noise: {name!r} is none of the campaign's sensors "
+                             f"{list(campaign.sensors)}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                or v < 0:
+            raise ValueError(f"noise[{name!r}] = {v!r} must be a finite number >= 0 (g)")
+        out[name] = float(v)
+    return out
+
+
 @dataclass
 class EventEval:
     """One event under one model: its simulation (None if the run failed), the standardised
@@ -448,6 +532,12 @@ class CampaignEvaluator:
         A :class:`~vadsim.model.cache.ResultCache` or its folder for the measured
         simulations (None: ``$VADSIM_CACHE`` if set; False: none). Changes with a
         measurement-side part and core extra-force objects are never cached.
+    noise
+        Each sensor's noise (g) added to the model's sampled series
+        (:func:`measure_event`): None (default) estimates it from the recordings
+        (:func:`recorded_noise_g`, rounded to :data:`NOISE_STEP_G`), False adds none, a
+        mapping gives it per sensor name. The draws come from a fixed seed, so a model change
+        moves a feature, not the noise.
     """
 
     def __init__(self, campaign: Campaign, settings: RunSettings, *,
@@ -455,7 +545,8 @@ class CampaignEvaluator:
                  keys: Mapping[str, Sequence[str]] | None = None, resolution: str = "sensor",
                  phases: int = 8, workers: int | None = None,
                  folded: bool | None = None,
-                 cache: ResultCache | str | os.PathLike[str] | bool | None = None) -> None:
+                 cache: ResultCache | str | os.PathLike[str] | bool | None = None,
+                 noise: Mapping[str, float] | bool | None = None) -> None:
         if resolution not in ("sensor", "full"):
             raise ValueError(f"resolution = {resolution!r} must be 'sensor' or 'full'")
         if not (isinstance(phases, int) and phases >= 1):
@@ -470,6 +561,7 @@ class CampaignEvaluator:
                                                   folded=self.folded)
                          for ev in campaign.events})
         self.keys: dict[str, list[str]] = {e: list(k) for e, k in (keys or {}).items()}
+        self.noise_g = _noise_option(noise, campaign, settings)
         self.n_evals = 0
         self.cache = default_cache(cache)
         self._runs: dict[str, SimulationResult | None] = {}
@@ -531,7 +623,8 @@ class CampaignEvaluator:
             settings = change.apply(self.settings, ev.flow_gpm)
             return self.cache.key("event-simulation", self.resolution, settings, ev.flow_gpm,
                                   float(ev.wob_klbf), fine_rate_hz(self.campaign),
-                                  self.campaign.sensors, self.phases, self.folded)
+                                  self.campaign.sensors, self.phases, self.folded,
+                                  self.noise_g)
         except (Uncacheable, ValueError):
             return None
 
@@ -563,7 +656,7 @@ class CampaignEvaluator:
                 return None
             return measure_event(self.campaign, ev, r, phases=self.phases,
                                  measurement=change.measurement, folded=self.folded,
-                                 full_features=False)
+                                 full_features=False, noise_g=self.noise_g, seed=NOISE_SEED)
         except (SolverError, ValueError):
             return None
 

@@ -96,9 +96,10 @@ def test_an_event_simulation_survives_the_round_trip_exactly():
     assert back == sim
 
 
-def _evaluate(camp, store, change=None):
+def _evaluate(camp, store, change=None, noise=None):
     settings = RunSettings("7in-cde", **RUN)
-    with CampaignEvaluator(camp, settings, phases=2, workers=2, cache=store) as ev:
+    with CampaignEvaluator(camp, settings, phases=2, workers=2, cache=store,
+                           noise=noise) as ev:
         base = ev.base()
         out = {e: v.z for e, v in base.items()}
         if change is not None:
@@ -128,13 +129,17 @@ def test_another_campaign_at_the_same_points_shares_the_runs_but_not_the_residua
     store = ResultCache(tmp_path)
     a = synthetic_campaign("7in-cde", FLOWS, seed=3, **SMALL)
     b = synthetic_campaign("7in-cde", FLOWS, seed=4, **SMALL)
-    za, _ = _evaluate(a, store)
-    zb, _ = _evaluate(b, store)
+    sensors = {"x1": 0.3, "x5": 0.3}  # the same sensors' noise
+    za, _ = _evaluate(a, store, noise=sensors)
+    zb, _ = _evaluate(b, store, noise=sensors)
     assert store.hits == 2
-    zb_fresh, _ = _evaluate(b, False)
+    zb_fresh, _ = _evaluate(b, False, noise=sensors)
     for e in zb:
         np.testing.assert_array_equal(zb[e], zb_fresh[e])
     assert not np.array_equal(za["e01"], zb["e01"])
+    # The model is measured with the noise: another noise is another measurement.
+    _evaluate(b, store, noise={"x1": 1.0, "x5": 1.0})
+    assert store.hits == 2 and store.misses == 4
 
 
 def test_what_has_no_stable_description_is_not_cached(tmp_path):

@@ -21,6 +21,7 @@ from vadsim.model.change import ModelChange
 from vadsim.model.presets import Preset, get_preset
 from vadsim.model.settings import RunSettings
 from vadsim.model.simulate import G, SimulationResult
+from vadsim.model.steady import steady_run
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
 __all__ = ["DEFAULT_SENSORS", "record_run", "synthetic_campaign"]
@@ -105,8 +106,8 @@ def synthetic_campaign(
     for i, (q, wob) in enumerate(zip(flows, wobs, strict=True)):
         n_an = math.ceil(duration_s * base.f_exc_hz(q)) if duration_s else analyse_cycles
         run = change.apply(base, q) if change is not None else base
-        r = run.with_changes(cycles=settle + n_an, analyse_cycles=n_an).run(
-            q, wob_klbf=wob, record="window", output_rate_hz=fine)
+        r = steady_run(run.with_changes(cycles=settle + n_an, analyse_cycles=n_an),
+                       q, wob_klbf=wob, record="window", output_rate_hz=fine)
         events.append(record_run(r, sensors, event_id=f"e{i + 1:02d}", flow_gpm=float(q),
                                  wob_klbf=float(wob), phase=float(rng.uniform(0.0, 1.0)),
                                  noise_g=noise_g, rng=rng, duration_s=duration_s,

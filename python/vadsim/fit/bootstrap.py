@@ -28,6 +28,7 @@ from vadsim.campaigns.synthetic import record_run
 from vadsim.compare import CampaignEvaluator, EventSimulation, fine_rate_hz, recorded_features
 from vadsim.model.change import ModelChange
 from vadsim.model.simulate import SimulationResult, SolverError
+from vadsim.model.steady import steady_run
 
 __all__ = ["BOOTSTRAP_RUNS", "cost_rises"]
 
@@ -56,9 +57,9 @@ def _runs(evaluator: CampaignEvaluator, change: ModelChange, eid: str, n_runs: i
     out = []
     for k in range(n_runs):
         try:
-            out.append(settings.with_changes(cycles=settle + 3 * k + n_an, analyse_cycles=n_an)
-                       .run(ev.flow_gpm, wob_klbf=ev.wob_klbf, record="window",
-                            output_rate_hz=fine))
+            out.append(steady_run(
+                settings.with_changes(cycles=settle + 3 * k + n_an, analyse_cycles=n_an),
+                ev.flow_gpm, wob_klbf=ev.wob_klbf, record="window", output_rate_hz=fine))
         except (SolverError, ValueError):
             continue
     if not out:

@@ -43,7 +43,7 @@ import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -452,6 +452,9 @@ class _Context:
     cache: str | bool = False
     """The result cache's folder (False: none); a folder, not the object, crosses to a
     worker process."""
+    noise: Mapping[str, float] = field(default_factory=dict)
+    """Each sensor's noise (g) the model's measurement adds, estimated once from the
+    recordings (:func:`vadsim.compare.recorded_noise_g`)."""
 
     def evaluator(self, probe: bool, workers: int) -> CampaignEvaluator:
         """A comparison engine at the diagnosis' fidelity or at a probe's."""
@@ -462,7 +465,7 @@ class _Context:
                 analyse_cycles=settings.analyse_cycles * PROBE_CYCLE_FRACTION)
         return CampaignEvaluator(self.campaign, settings, targets=self.targets,
                                  keys=self.keys, phases=self.phases, workers=workers,
-                                 cache=self.cache)
+                                 cache=self.cache, noise=dict(self.noise))
 
 
 def _probe_subset(camp: Campaign, folds: Sequence[Fold], n: int,
@@ -809,7 +812,7 @@ def diagnose(
         probe_eids, probe_folds = _probe_subset(camp, folds, PROBE_EVENTS)
         ctx = _Context(camp, settings, phases, tuple(folds), tuple(eids), ev.targets,
                        {e: tuple(k) for e, k in ev.keys.items()}, probe_eids, probe_folds,
-                       cache_folder)
+                       cache_folder, dict(ev.noise_g))
         coarse_ev = stack.enter_context(ctx.evaluator(True, ev.workers))
         hyp0 = Hypothesis((), nuis)
         base = _calibrate_base(ctx, ev, coarse_ev, hyp0, say)
@@ -838,7 +841,8 @@ def diagnose(
             settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, phases=phases,
                           block_fraction=block_fraction, candidates=keys,
                           nuisance=[f"{s.name}={s.lo:g}:{s.hi:g}" for s in nuis],
-                          overrides=dict(settings.overrides), **opts),
+                          overrides=dict(settings.overrides),
+                          noise_g={k: round(v, 4) for k, v in ev.noise_g.items()}, **opts),
             elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals,
         )
 
