@@ -226,24 +226,6 @@ def test_an_effect_must_cut_the_all_event_error_too():
     assert not _passes(real, none, replace(none, rss=0.5 * none.rss), 10.0, 0.3)
 
 
-def test_a_fold_refits_theta0_in_the_basin_of_the_all_event_fit():
-    """theta0 is periodic (pi) with several minima: a fold chooses among points within 1/8
-    of its period of the all-event fit, across the wrap at 0 = pi too; WOB stays free."""
-    from vadsim.fit.hypothesis import FOLD_BASIN, Hypothesis, _in_basin
-    from vadsim.fit.nuisance import THETA0, WOB_SCALE
-
-    hyp = Hypothesis((), (WOB_SCALE, THETA0))
-    step = FOLD_BASIN * math.pi
-    anchor = (1.0, 0.05)
-    points = [(1.0, 0.05), (0.86, 0.05 + 0.9 * step), (1.14, 0.05 - 0.9 * step + math.pi),
-              (1.0, 0.05 + 1.1 * step), (1.0, 1.6), (0.9, 2.6)]
-    assert _in_basin(hyp, points, anchor) == [0, 1, 2]
-    assert _in_basin(hyp, points, None) == list(range(6))
-    # a hypothesis without a periodic constant keeps every point
-    wob_only = Hypothesis((), (WOB_SCALE,))
-    assert _in_basin(wob_only, [(0.9,), (1.1,)], (1.0,)) == [0, 1]
-
-
 @pytest.fixture(scope="module")
 def hydraulic_campaign():
     return synthetic_campaign("7in-cde", FLOWS, change=_truth(HYDRAULIC), seed=11, **SMALL)

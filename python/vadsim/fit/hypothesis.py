@@ -270,32 +270,6 @@ def _parabola_min(u: np.ndarray, c: np.ndarray) -> float:
     return float(min(max(-b / (2 * a), x0), x2))
 
 
-FOLD_BASIN = 0.125
-"""How far (fraction of its period) a fold's refit may move a periodic nuisance constant
-(theta0) from the all-event fit: a refit on the training events stays in the basin of the
-all-event optimum, as a local refit from it would. Why: theta0's cost has several minima
-over its period. Choosing among *all* evaluated points, a fold could jump to another basin
-that fits its training events as well and predicts the held-out event -- an intermittent
-or chaotic flow -- badly: on a null campaign "none" fitted every event at RMS 0.38 and held
-out at 2.05 (leave-one-flow-out 2.30, the high-flow block 0.24)."""
-
-
-def _in_basin(hyp: Hypothesis, points: list[Point], anchor: Point | None) -> list[int]:
-    """Indices of ``points`` whose periodic nuisance constants lie within
-    :data:`FOLD_BASIN` of a period from ``anchor``'s (every point without an anchor)."""
-    periodic = [i for i, p in enumerate(hyp.specs)
-                if isinstance(p, NuisanceSpec) and p.periodic]
-    if anchor is None or not periodic:
-        return list(range(len(points)))
-    a = hyp.unit(anchor)
-    keep = []
-    for j, pt in enumerate(points):
-        u = hyp.unit(pt)
-        if all(abs((u[i] - a[i] + 0.5) % 1.0 - 0.5) <= FOLD_BASIN + 1e-12 for i in periodic):
-            keep.append(j)
-    return keep or list(range(len(points)))
-
-
 def _fold_point(hyp: Hypothesis, points: list[Point], train_cost: np.ndarray) -> Point:
     if len(hyp.specs) == 1:
         us = np.array([hyp.unit(p)[0] for p in points])
@@ -418,16 +392,12 @@ class _Heldout:
 
 
 def score_folds(costs: HypothesisCosts, folds: Sequence[Fold], points: list[Point],
-                event_rss: np.ndarray, anchor: Point | None = None) -> _Heldout:
-    """Refit on each fold's training events (choosing among evaluated points, in the basin of
-    the all-event fit ``anchor`` for periodic nuisance constants: :data:`FOLD_BASIN`) and
-    predict its held-out events."""
+                event_rss: np.ndarray) -> _Heldout:
+    """Refit on each fold's training events (choosing among evaluated points) and predict its
+    held-out events."""
     hyp, eids, ev = costs.hyp, costs.eids, costs.ev
     names = [p.name for p in hyp.specs]
     out = _Heldout()
-    basin = _in_basin(hyp, points, anchor)
-    points = [points[j] for j in basin]
-    event_rss = event_rss[basin]
     for name, train, test in folds:
         tc = event_rss[:, [eids.index(e) for e in train]].sum(axis=1)
         pt = _fold_point(hyp, points, tc) if hyp.specs else ()
@@ -530,7 +500,7 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     event_rss = costs.event_rss(points)
     specs = hyp.specs
     intervals = profile_interval(hyp, points, event_rss.sum(axis=1), n) if specs else []
-    h = score_folds(costs, folds, points, event_rss, anchor=best)
+    h = score_folds(costs, folds, points, event_rss)
     all_sq = np.concatenate(h.sq_lofo + h.sq_block)
     mse = float(all_sq.mean())
     k = len(specs)
