@@ -37,7 +37,7 @@ import math
 import os
 import threading
 from collections import OrderedDict
-from collections.abc import Hashable, Mapping, Sequence
+from collections.abc import Hashable, Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -54,6 +54,7 @@ from vadsim.model.steady import steady_run
 from vadsim.signals.features import Feature, event_features, summary_features
 from vadsim.signals.fold_features import (
     ALT_MARK,
+    fold_periods,
     model_fold_features,
     noise_floor_g,
     recorded_fold_features,
@@ -195,15 +196,18 @@ def _phase_average(per_phase: list[dict[str, Feature]]
     return out, sd
 
 
-def _model_folded(campaign: Campaign, r: SimulationResult,
-                  full: Mapping[str, np.ndarray]) -> dict[str, Feature]:
+def _model_folded(campaign: Campaign, r: SimulationResult, full: Mapping[str, np.ndarray],
+                  periods: Iterable[int] | None = None) -> dict[str, Feature]:
     """Folded and distribution features of one rate group's fine-grid signals, through each
-    sensor's analog chain (its low-pass and range), folded at the run's exact frequency."""
+    sensor's analog chain (its low-pass and range), folded at the run's exact frequency
+    (every period, or ``periods``)."""
     analog = {}
     for name, a in full.items():
         s = campaign.sensors[name]
         analog[name], _ = analog_chain(r.t, a, lowpass_hz=s.lowpass_hz, range_g=s.range_g)
-    return model_fold_features(r.t, analog, r.f_exc_hz)
+    if periods is None:
+        return model_fold_features(r.t, analog, r.f_exc_hz)
+    return model_fold_features(r.t, analog, r.f_exc_hz, periods=periods)
 
 
 def measure_event(
@@ -218,6 +222,7 @@ def measure_event(
     measurement: Measurement | None = None,
     folded: bool | None = None,
     full_features: bool = True,
+    fold_periods: Iterable[int] | None = None,
 ) -> EventSimulation:
     """Features of a run through each sensor's chain and at full resolution.
 
@@ -240,6 +245,9 @@ def measure_event(
 
     ``full_features=False`` skips the full-resolution features (``full``): a comparison
     through the sensor chains does not use them, and they cost a third of the measurement.
+    ``fold_periods`` folds only those periods (default: 1-4): a comparison with a recording
+    needs only the period the recording folded at (:func:`vadsim.signals.fold_features.
+    fold_periods` of its keys), and the folds are half of a measurement's cost.
 
     ``noise_g`` (one value, or one per sensor name) adds each sensor's Gaussian noise to the
     sampled series, drawn from ``seed``: a recording's window features (peaks, quantiles,
@@ -279,7 +287,7 @@ def measure_event(
         sensor_feats.update(averaged)
         phase_sd.update(sd)
         if _use_folded(folded):
-            fx = _model_folded(campaign, r, full)
+            fx = _model_folded(campaign, r, full, fold_periods)
             sensor_feats.update(fx)
             phase_sd.update(dict.fromkeys(fx, 0.0))
         if full_features:
@@ -561,6 +569,8 @@ class CampaignEvaluator:
                                                   folded=self.folded)
                          for ev in campaign.events})
         self.keys: dict[str, list[str]] = {e: list(k) for e, k in (keys or {}).items()}
+        self.fold_periods = {e: tuple(sorted(fold_periods(t))) for e, t in self.targets.items()}
+        """Event -> the fold periods its recording's features use: the model folds no other."""
         self.noise_g = _noise_option(noise, campaign, settings)
         self.n_evals = 0
         self.cache = default_cache(cache)
@@ -624,7 +634,7 @@ class CampaignEvaluator:
             return self.cache.key("event-simulation", self.resolution, settings, ev.flow_gpm,
                                   float(ev.wob_klbf), fine_rate_hz(self.campaign),
                                   self.campaign.sensors, self.phases, self.folded,
-                                  self.noise_g)
+                                  self.noise_g, self.fold_periods.get(ev.id))
         except (Uncacheable, ValueError):
             return None
 
@@ -656,7 +666,8 @@ class CampaignEvaluator:
                 return None
             return measure_event(self.campaign, ev, r, phases=self.phases,
                                  measurement=change.measurement, folded=self.folded,
-                                 full_features=False, noise_g=self.noise_g, seed=NOISE_SEED)
+                                 full_features=False, noise_g=self.noise_g, seed=NOISE_SEED,
+                                 fold_periods=self.fold_periods.get(eid))
         except (SolverError, ValueError):
             return None
 

@@ -65,7 +65,7 @@ from types import MappingProxyType
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy.signal import find_peaks, get_window, periodogram
+from scipy.signal import find_peaks, get_window
 
 from vadsim._checks import finite_1d, finite_positive, number
 from vadsim.signals.labels import (
@@ -296,14 +296,12 @@ def _band_rms(
         segments = np.stack([a[bounds[i] : bounds[i] + length] for i in rows])
         w = get_window("hann", int(length))
         offset = segments @ w / np.sum(w)
-        freqs, psd = periodogram(
-            segments - offset[:, np.newaxis],
-            fs=rate_hz,
-            window=w,
-            detrend=False,
-            scaling="density",
-            axis=-1,
-        )
+        # scipy.signal.periodogram's one-sided density, without its per-call overhead
+        # (it was a tenth of a diagnosis' feature time)
+        spec = np.fft.rfft((segments - offset[:, np.newaxis]) * w, axis=-1)
+        psd = (spec.real ** 2 + spec.imag ** 2) / (rate_hz * np.sum(w * w))
+        psd[:, 1 : psd.shape[1] - (1 if length % 2 == 0 else 0)] *= 2.0
+        freqs = np.fft.rfftfreq(int(length), 1.0 / rate_hz)
         df = rate_hz / length
         for j, (lo, hi) in enumerate(bands):
             mask = (freqs >= lo) & ((freqs < hi) | ((hi >= nyquist) & (freqs <= hi)))
@@ -512,7 +510,7 @@ def sensor_features(
         counterpart from an acceleration, where the surfaces cannot be told apart.)
     ``band_<lo>_<hi>_g``
         RMS of the signal in the band ``[lo, hi)`` Hz, g, per window: Hann-weighted window
-        mean removed (offsets are not vibration), Hann window, ``scipy.signal.periodogram``
+        mean removed (offsets are not vibration), Hann window, the periodogram
         with density scaling summed over the band times the bin width, so that a sine of
         amplitude A inside the band gives A / sqrt(2) (for 200 ms windows the band should
         extend 10 Hz beyond the tone on each side, the Hann main lobe). Value = mean over

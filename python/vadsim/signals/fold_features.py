@@ -123,6 +123,7 @@ standardises the residual.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -194,6 +195,15 @@ class _Shape:
 def fold_tag(period: int) -> str:
     """Key tag of a fold of ``period`` cycles: ``fold`` for 1, ``fold2``... otherwise."""
     return "fold" if period == 1 else f"fold{period}"
+
+
+_FOLD_KEY = re.compile(r"_fold(\d*)_")
+
+
+def fold_periods(keys: Iterable[str]) -> set[int]:
+    """The fold periods that feature ``keys`` use (``x1_fold_peak_g`` -> 1,
+    ``x5_fold2_lag`` -> 2): a model measured for a recording's keys need fold no other."""
+    return {int(m.group(1) or 1) for k in keys if (m := _FOLD_KEY.search(k))}
 
 
 # --------------------------------------------------------------------------------------------
