@@ -545,7 +545,7 @@ class CampaignEvaluator:
         (:func:`measure_event`): None (default) estimates it from the recordings
         (:func:`recorded_noise_g`, rounded to :data:`NOISE_STEP_G`), False adds none, a
         mapping gives it per sensor name. The draws come from a fixed seed, so a model change
-        moves a feature, not the noise.
+        moves a feature, not the noise. Unused (and not estimated) at ``resolution="full"``.
     """
 
     def __init__(self, campaign: Campaign, settings: RunSettings, *,
@@ -571,7 +571,9 @@ class CampaignEvaluator:
         self.keys: dict[str, list[str]] = {e: list(k) for e, k in (keys or {}).items()}
         self.fold_periods = {e: tuple(sorted(fold_periods(t))) for e, t in self.targets.items()}
         """Event -> the fold periods its recording's features use: the model folds no other."""
-        self.noise_g = _noise_option(noise, campaign, settings)
+        # a full-resolution comparison measures no sensor: no noise to estimate
+        self.noise_g = (_noise_option(noise, campaign, settings) if resolution == "sensor"
+                        else {})
         self.n_evals = 0
         self.cache = default_cache(cache)
         self._runs: dict[str, SimulationResult | None] = {}

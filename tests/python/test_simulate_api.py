@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import vadsim
+from _children import SIGINT_PRELUDE
 from vadsim import SURFACES, G
 
 SHORT = dict(cycles=20, analyse_cycles=10)
@@ -699,11 +700,6 @@ HANG_GUARD_S = 60.0
 LONG_RUN = "cycles=100000, analyse_cycles=10, record='none', summary_rate_hz=2000"
 NOTE_RE = re.compile(r"simulation interrupted at t = (\S+) s of t_end = (\S+) s, after (\d+) "
                      r"steps")
-
-
-# A shell that starts a job in the background (``cmd &`` without job control) makes it ignore
-# SIGINT, and Python then installs no handler: the child restores Python's own.
-SIGINT_PRELUDE = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
 
 
 def _child(code: str) -> subprocess.Popen:

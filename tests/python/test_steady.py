@@ -107,3 +107,12 @@ def test_a_bad_noise_option_is_refused_by_name(noisy):
                       (0.3, "noise")):
         with pytest.raises(ValueError, match=name):
             CampaignEvaluator(noisy, settings, noise=bad)
+
+
+def test_a_full_resolution_comparison_estimates_no_noise(noisy):
+    """It measures no sensor, so the noise a sensor adds is not estimated (nor used)."""
+    settings = RunSettings("7in-cde", cycles=60, analyse_cycles=40)
+    with CampaignEvaluator(noisy, settings, resolution="full", cache=False) as ev:
+        assert ev.noise_g == {}
+    with CampaignEvaluator(noisy, settings, cache=False) as ev:
+        assert set(ev.noise_g) == {"x1", "x5"}

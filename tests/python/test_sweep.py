@@ -31,6 +31,7 @@ import pytest
 import vadsim
 import vadsim.sweep as vsweep
 import xarray as xr
+from _children import SIGINT_PRELUDE
 from vadsim.model.settings import ExtraSpec, RunSettings
 from vadsim.presets import get_preset
 from vadsim.sweep import (
@@ -297,9 +298,7 @@ def test_store_reuse_and_other_grid_refused(tmp_path: Path, base_map: xr.Dataset
 def _run_child_and_interrupt(store: Path, sig: int, after: int) -> tuple[set[str], str]:
     """Run the resume grid in a child process and send ``sig`` once ``after`` chunks exist."""
     kw = dict(flows=RESUME_FLOWS, gaps=RESUME_GAPS, **SHORT)
-    # A background job (``cmd &`` without job control) ignores SIGINT: restore Python's handler.
-    code = ("import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
-            + _CHILD.replace("DELAY", "0.15"))
+    code = SIGINT_PRELUDE + _CHILD.replace("DELAY", "0.15")
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen([sys.executable, "-c", code, str(store), json.dumps(kw)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
