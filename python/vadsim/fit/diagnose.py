@@ -927,7 +927,8 @@ def diagnose(
     max_effects, screen_top
         At most ``max_effects`` effects. Each step probes every remaining candidate on a
         coarse grid on top of the chosen ones and fits the ``screen_top`` most promising
-        fully.
+        fully. Where the first step chooses nothing and "none" is unexplained, a pair step
+        may add two effects at once (``pair_prospects``: effects that need each other).
     max_rms
         Held-out RMS standardised residual above which the final model does not explain the
         campaign (verdict ``"unexplained"``).
