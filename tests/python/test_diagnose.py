@@ -391,8 +391,13 @@ def test_a_pair_step_names_two_effects_no_single_one_explains():
     assert set(d.missing_physics) == {"hydraulic_force", "anvil_friction"}, d.summary()
     assert d.verdict == "explained"
     assert len(d.chosen.keys) == 2
-    assert d.as_json()["parameters"]["anvil_friction"]["force"] == pytest.approx(100.0,
-                                                                                 rel=0.3)
+    js = d.as_json()
+    assert js["parameters"]["anvil_friction"]["force"] == pytest.approx(100.0, rel=0.3)
+    # what the pair step probed is reported, the chosen pair among the fitted ones
+    fitted = [set(q["pair"].split("+")) for q in js["pairs_probed"] if q["fitted"]]
+    assert {"hydraulic_force[anvil]", "anvil_friction"} in fitted
+    assert all(q["probe_rss"] <= q["single_rss"] for q in js["pairs_probed"] if q["fitted"])
+    assert "pair step" in d.summary()
 
 
 def test_an_excitation_amplitude_drift_with_flow_is_named():

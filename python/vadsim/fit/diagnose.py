@@ -149,7 +149,8 @@ class Diagnosis:
     base model, ``none_fit`` the one of the two that "none" stands for (see
     :func:`none_model`), ``steps`` the ranking of each forward-selection step (the first is
     ``ranking``), ``chosen`` the final model with effects (None if none was chosen) and
-    ``verdict`` one of ``"none"``, ``"explained"``, ``"unexplained"``.
+    ``verdict`` one of ``"none"``, ``"explained"``, ``"unexplained"``, ``pairs`` what the
+    pair step probed.
     """
 
     campaign: Campaign
@@ -170,6 +171,9 @@ class Diagnosis:
     elapsed_s: float
     n_evals: int
     prediction: dict[str, Any] | None = None
+    pairs: list[dict[str, Any]] = field(default_factory=list)
+    """The pair step's joint probes (empty where it did not run): ``pair``, ``probe_rss``,
+    ``single_rss`` (the best single probe's) and ``fitted`` (whether it earned a full fit)."""
 
     @property
     def ranking(self) -> list[HypothesisFit]:
@@ -222,6 +226,7 @@ class Diagnosis:
                             "max_effects")},
             "elapsed_s": self.elapsed_s,
             "evaluations": self.n_evals,
+            "pairs_probed": self.pairs,
         }
         if self.prediction is not None:
             out["prediction"] = self.prediction
@@ -264,6 +269,12 @@ class Diagnosis:
                              f"({f.heldout_rms_lofo:.2f}/{f.heldout_rms_block:.2f}) "
                              + (f"{'probe':>9s}" if f.probe else f"{f.score:9.1f}")
                              + f"  {_params_text(f)}")
+        if self.pairs:
+            lines.append("pair step (joint probes, RSS on the probe events; best single "
+                         f"{self.pairs[0]['single_rss']:.1f}): "
+                         + ", ".join(f"{q['pair']} {q['probe_rss']:.1f}"
+                                     + (" (fitted)" if q["fitted"] else "")
+                                     for q in self.pairs))
         lines.append(self.verdict_text())
         if self.prediction:
             p = self.prediction
@@ -279,7 +290,8 @@ class Diagnosis:
             return (f"missing physics: none (the {which} base model explains the campaign: "
                     f"held-out RMS {b:.2f} <= {self.settings['max_rms']:g})")
         what = (f"{' + '.join(self.chosen.ids)} ({_params_text(self.chosen)}); held-out RMS "
-                f"{b:.2f} -> {f:.2f}" if self.chosen else "no candidate passes the thresholds")
+                f"{b:.2f} -> {f:.2f}" if self.chosen else
+                "no candidate" + (" nor pair" if self.pairs else "") + " passes the thresholds")
         if self.verdict == "explained":
             return f"missing physics: {what}"
         where = "; ".join(f"{u['flow_gpm']:g} gal/min ({', '.join(u['worst'])})"
@@ -599,6 +611,7 @@ def _passes(fit: HypothesisFit, bar: HypothesisFit, extended: HypothesisFit, min
 class _Selection:
     steps: list[list[HypothesisFit]]
     chosen: HypothesisFit | None
+    pairs: list[dict[str, Any]] = field(default_factory=list)
 
 
 def _screened(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
@@ -676,6 +689,7 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
     current, steps, pool = base, [], list(keys)
     solo: dict[str, HypothesisFit] = {}
     probes: list[HypothesisFit] = []
+    tried: list[dict[str, Any]] = []
     step = 0
     while len(current.keys) < int(opts["max_effects"]):
         bar = none if not current.keys else current
@@ -699,7 +713,7 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
         if not _passes(fits[0], bar, current, opts["min_delta"], opts["min_reduction"]):
             if (step == 1 and int(opts["max_effects"]) >= 2
                     and none.heldout_rms > opts["max_rms"]):
-                pairs = _pair_step(ctx, ev, coarse_ev, base, probes, opts, say)
+                pairs = _pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried)
                 if pairs:
                     steps.append(pairs)
                     step += 1
@@ -713,18 +727,20 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
         current = _densify(ctx, ev, coarse_ev, fits[0], say)
         chosen_ids = set(current.ids)
         pool = [f.keys[-1] for f in fits[1:] if CANDIDATES[f.keys[-1]].id not in chosen_ids]
-    return _Selection(steps, current if current is not base else None)
+    return _Selection(steps, current if current is not base else None, tried)
 
 
 def _pair_step(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
                base: HypothesisFit, probes: Sequence[HypothesisFit],
-               opts: Mapping[str, Any], say: Callable[[str], None]) -> list[HypothesisFit]:
+               opts: Mapping[str, Any], say: Callable[[str], None],
+               tried: list[dict[str, Any]] | None = None) -> list[HypothesisFit]:
     """Pairs of the first step's most promising candidates (:func:`pair_prospects`): a joint
     probe of each pair (a grid over both candidates' parameters at the nuisance values where
     they showed most, on the coarse engine), then full fits of the :data:`PAIR_FULL` best
     whose probe cuts the best single probe's cost by :data:`PAIR_MIN_CUT` in RMS; best
     first, or none. Whether the best is chosen is :func:`_passes`' question, against
-    "none", with the diagnosis' own thresholds."""
+    "none", with the diagnosis' own thresholds. ``tried`` receives each joint probe's
+    outcome."""
     prospects = pair_prospects(probes, PAIR_TOP)
     if not prospects:
         return []
@@ -743,6 +759,10 @@ def _pair_step(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluato
                        key=lambda f: f.rss)
     say("pairs: " + ("; ".join(f"{f.key} probe RSS {f.rss:.1f}" for f in promising[:PAIR_FULL])
                      or "none") + f" against {single:.1f} for the best single probe")
+    if tried is not None:
+        fitted = {f.key for f in promising[:PAIR_FULL]}
+        tried.extend({"pair": f.key, "probe_rss": f.rss, "single_rss": single,
+                      "fitted": f.key in fitted} for f in sorted(joint, key=lambda f: f.rss))
     if not promising:
         return []
     full = _fit_all(ctx, [_Job(f.hypothesis, f.point,
@@ -1005,7 +1025,7 @@ def diagnose(
                           nuisance=[f"{s.name}={s.lo:g}:{s.hi:g}" for s in nuis],
                           overrides=dict(settings.overrides),
                           noise_g={k: round(v, 4) for k, v in ev.noise_g.items()}, **opts),
-            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals,
+            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals, pairs=sel.pairs,
         )
 
 
