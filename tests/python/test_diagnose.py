@@ -245,7 +245,7 @@ def test_pairs_combine_the_candidates_that_showed_most_at_either_nuisance_anchor
             res[(*null, *anchor)] = r
             res[(*best, *anchor)] = np.sqrt(1.0 - gain) * r
         return replace(_scored(3.0, k=len(null)), keys=(key,), point=(*null, *calibrated),
-                       probe=True, residuals=res)
+                       probe=True, point_rss={pt: float(z @ z) for pt, z in res.items()})
 
     probes = [probe("hydraulic_force[anvil]", (0.0, 2.0), (150.0, 1.0), 0.05, 0.74),
               probe("hydraulic_force[bit]", (0.0, 2.0), (150.0, 2.0), 0.07, 0.10),
@@ -256,8 +256,8 @@ def test_pairs_combine_the_candidates_that_showed_most_at_either_nuisance_anchor
     # a resonance has no point where it vanishes: its gain is against the base model's
     # cost (19 % here), not against its own grid's middle (91 %)
     resonance = replace(probes[-1], keys=("sensor_chain[x5]",),
-                        residuals={(547.723, 5.47723, *nominal): 3.0 * r_nom,
-                                   (304.0, 1.0, *nominal): 0.9 * r_nom})
+                        point_rss={(547.723, 5.47723, *nominal): 9.0 * float(r_nom @ r_nom),
+                                   (304.0, 1.0, *nominal): 0.81 * float(r_nom @ r_nom)})
     probes.append(resonance)
     pairs = pair_prospects(probes, top=3)
     assert {(a, b) for a, b, _ in pairs} == {("hydraulic_force[anvil]", "anvil_friction"),
@@ -265,9 +265,9 @@ def test_pairs_combine_the_candidates_that_showed_most_at_either_nuisance_anchor
                                              ("anvil_friction", "mass[anvil]")}
     for _a, _b, nuis in pairs:
         assert nuis == pytest.approx(nominal)  # where the better of the two showed most
-    # a probe that gains nothing anywhere is never paired, nor one without residuals
+    # a probe that gains nothing anywhere is never paired, nor one without grid costs
     assert all("string_radiation" not in (a, b) for a, b, _ in pair_prospects(probes, top=6))
-    assert pair_prospects([replace(f, residuals={}) for f in probes], top=3) == []
+    assert pair_prospects([replace(f, point_rss={}) for f in probes], top=3) == []
 
 
 def test_a_pair_with_a_vanished_candidate_is_a_single_effect():

@@ -530,7 +530,7 @@ def _run_job(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     on the coarse engine."""
     if job.probe:
         fit = fit_hypothesis(coarse_ev, job.hyp, job.start, job.stages, ctx.probe_folds,
-                             list(ctx.probe_eids), say, job.alternatives, keep_residuals=True)
+                             list(ctx.probe_eids), say, job.alternatives)
     else:
         fit = fit_hypothesis(ev, job.hyp, job.start, job.stages, ctx.folds, list(ctx.eids),
                              say, job.alternatives, coarse=(coarse_ev, list(ctx.probe_eids)))
@@ -579,13 +579,21 @@ def _vanishes(fit: HypothesisFit) -> bool:
     has a null at it): then it is no effect, whatever its refit of the others gained."""
     if not fit.keys:
         return True
-    return _at_null(fit, fit.hypothesis.split(fit.point)[0][CANDIDATES[fit.keys[-1]].key])
+    key = fit.keys[-1]
+    return _at_null(key, fit.hypothesis.split(fit.point)[0][CANDIDATES[key].key])
 
 
-def _at_null(fit: HypothesisFit, values: Mapping[str, float]) -> bool:
-    """Whether ``values`` hold the last-added candidate's every parameter that has a null at
-    that null."""
-    nulls = [p for p in CANDIDATES[fit.keys[-1]].params if p.null is not None]
+def _any_vanishes(fit: HypothesisFit) -> bool:
+    """Whether any candidate of ``fit`` sits at its null (a pair with one gone is a single
+    effect)."""
+    cands, _ = fit.hypothesis.split(fit.point)
+    return any(_at_null(key, cands[CANDIDATES[key].key]) for key in fit.keys)
+
+
+def _at_null(key: str, values: Mapping[str, float]) -> bool:
+    """Whether ``values`` hold candidate ``key``'s every parameter that has a null at that
+    null."""
+    nulls = [p for p in CANDIDATES[key].params if p.null is not None]
     return bool(nulls) and all(values.get(p.name) == p.null for p in nulls)
 
 
@@ -624,7 +632,7 @@ def _screened(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator
     the full fit of the ``top`` whose probe cut the training cost most (by at least
     :data:`PROBE_MIN_GAIN`) and of the :data:`SOLO_FULL` best first-step candidates
     (``solo``, best first); the others keep their probe's fit. ``probes_out`` receives every
-    probe (with its residuals at each grid point)."""
+    probe (with its cost at each grid point)."""
     probes = [_Job(current.hypothesis.extend(k), _job(current, k).start,
                    (_probe_stage(current.hypothesis.extend(k)),), probe=True) for k in pool]
     fits = _fit_all(ctx, probes, ev, coarse_ev, say)
@@ -683,9 +691,9 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
 
     Where no single candidate passes and "none" leaves the campaign unexplained, two effects
     may need each other (each alone absorbed by the other's parameters or the nuisance
-    constants): a pair step (:func:`_pair_step`) then fits the pairs that the first step's
-    probes, added together, say could explain it, and chooses the best one if it passes the
-    thresholds against "none" with neither candidate vanishing."""
+    constants): a pair step (:func:`_pair_step`) then probes pairs of the first step's most
+    promising candidates jointly, fits the best, and chooses one if it passes the thresholds
+    against "none" with neither candidate vanishing."""
     current, steps, pool = base, [], list(keys)
     solo: dict[str, HypothesisFit] = {}
     probes: list[HypothesisFit] = []
@@ -720,7 +728,8 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
                     if (_passes(pairs[0], none, base, opts["min_delta"],
                                 opts["min_reduction"]) and not _any_vanishes(pairs[0])):
                         current = _densify(ctx, ev, coarse_ev, pairs[0], say)
-                        pool = [k for k in pool if CANDIDATES[k].id not in set(current.ids)]
+                        chosen_ids = set(current.ids)
+                        pool = [k for k in pool if CANDIDATES[k].id not in chosen_ids]
                         continue
                     say(f"the best pair, {pairs[0].key}, does not pass against 'none'")
             break
@@ -790,12 +799,12 @@ def pair_prospects(probes: Sequence[HypothesisFit], top: int
     costs: dict[str, dict[tuple[float, ...], list[tuple[Point, float]]]] = {}
     base: dict[tuple[float, ...], float] = {}
     for f in probes:
-        if not f.residuals or len(f.keys) != 1:
+        if not f.point_rss or len(f.keys) != 1:
             continue
         key, nphys = f.keys[0], f.hypothesis.n_physics
         by_anchor = costs.setdefault(key, {})
-        for pt, z in f.residuals.items():
-            by_anchor.setdefault(_anchor_key(pt[nphys:]), []).append((pt, float(z @ z)))
+        for pt, c in f.point_rss.items():
+            by_anchor.setdefault(_anchor_key(pt[nphys:]), []).append((pt, c))
         if any(p.null is not None for p in CANDIDATES[key].params):
             null = Hypothesis((key,)).null_point()
             for anchor, items in by_anchor.items():
@@ -834,17 +843,6 @@ def _same(a: Sequence[float], b: Sequence[float]) -> bool:
     return all(math.isclose(x, y, rel_tol=1e-5, abs_tol=1e-12) for x, y in zip(a, b, strict=True))
 
 
-def _any_vanishes(fit: HypothesisFit) -> bool:
-    """Whether any candidate of ``fit`` sits at its null (every parameter that has one)."""
-    cands, _ = fit.hypothesis.split(fit.point)
-    for key in fit.keys:
-        nulls = [p for p in CANDIDATES[key].params if p.null is not None]
-        values = cands[CANDIDATES[key].key]
-        if nulls and all(values.get(p.name) == p.null for p in nulls):
-            return True
-    return False
-
-
 def _rescored(current: HypothesisFit, fits: list[HypothesisFit],
               say: Callable[[str], None]) -> HypothesisFit:
     """The current model with the held-out score of a fit on top of it whose new candidate
@@ -876,7 +874,7 @@ def _vanishes_in_folds(fit: HypothesisFit) -> bool:
     names = [p.name for p in fit.hypothesis.specs]
     if len(set(names)) != len(names) or not fit.fold_values:
         return False
-    return all(_at_null(fit, fv) for fv in fit.fold_values.values())
+    return all(_at_null(fit.keys[-1], fv) for fv in fit.fold_values.values())
 
 
 def _unexplained(final: HypothesisFit, flows: Mapping[str, float], max_rms: float

@@ -308,9 +308,9 @@ class HypothesisFit:
     probe: bool = False
     """Only probed (a coarse grid on a subset of events, shorter runs) in a screening step:
     its held-out score is the probe's, on that subset, and it is never chosen."""
-    residuals: dict[Point, np.ndarray] = field(default_factory=dict, repr=False)
-    """With ``keep_residuals``: every evaluated point's standardised residuals over the fit's
-    events, concatenated in event order (a screening step combines candidates' probes)."""
+    point_rss: dict[Point, float] = field(default_factory=dict, repr=False)
+    """Every point evaluated on all the fit's events, with its training cost (a pair step
+    reads the first step's probes from it)."""
 
     @property
     def hypothesis(self) -> Hypothesis:
@@ -479,8 +479,8 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
                    stages: Sequence[Stage], folds: Sequence[Fold], eids: list[str],
                    progress: Callable[[str], None] = lambda _m: None,
                    alternatives: Sequence[Point] = (),
-                   coarse: tuple[CampaignEvaluator, list[str]] | None = None,
-                   keep_residuals: bool = False) -> HypothesisFit:
+                   coarse: tuple[CampaignEvaluator, list[str]] | None = None
+                   ) -> HypothesisFit:
     """Fit ``hyp`` through ``stages`` from ``start`` and from each of ``alternatives``
     (keeping the best end), then compute its profile interval and held-out score over every point
     evaluated on all events (at full fidelity: ``coarse``, a cheaper engine and its events,
@@ -501,8 +501,9 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
             best_rss, best = r, p
     points = list(costs.points) or [start]
     event_rss = costs.event_rss(points)
+    point_rss = event_rss.sum(axis=1)
     specs = hyp.specs
-    intervals = profile_interval(hyp, points, event_rss.sum(axis=1), n) if specs else []
+    intervals = profile_interval(hyp, points, point_rss, n) if specs else []
     h = score_folds(costs, folds, points, event_rss)
     all_sq = np.concatenate(h.sq_lofo + h.sq_block)
     mse = float(all_sq.mean())
@@ -516,9 +517,7 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
         fold_values=h.fold_values, n_points=len(points),
         n_evals=ev.n_evals - n0 + (coarse[0].n_evals - c0 if coarse is not None else 0),
         rss_start=costs.rss(start), n_heldout=int(all_sq.size),
-        top_points=tuple(points[i] for i in np.argsort(event_rss.sum(axis=1))[:TOP_POINTS]))
-    if keep_residuals:
-        got = costs.evaluate(points)
-        fit.residuals = {p: np.concatenate([got[(p, e)].z for e in eids]) for p in points}
+        top_points=tuple(points[i] for i in np.argsort(point_rss)[:TOP_POINTS]),
+        point_rss=dict(zip(points, point_rss.tolist(), strict=True)))
     progress(f"{fit.key}: held-out RMS {fit.heldout_rms:.3f}, score {fit.score:.1f}")
     return fit
