@@ -693,12 +693,16 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
     may need each other (each alone absorbed by the other's parameters or the nuisance
     constants): a pair step (:func:`_pair_step`) then probes pairs of the first step's most
     promising candidates jointly, fits the best, and chooses one if it passes the thresholds
-    against "none" with neither candidate vanishing."""
+    against "none" with neither candidate vanishing. The pair step runs once: also where
+    the first step chose one effect, the second step failed and that one effect leaves the
+    campaign unexplained (one effect absorbed part of another, e.g. a contact law taking
+    part of a mount resonance on blind-12); the pair then replaces the single effect if it
+    passes the thresholds against it."""
     current, steps, pool = base, [], list(keys)
     solo: dict[str, HypothesisFit] = {}
     probes: list[HypothesisFit] = []
     tried: list[dict[str, Any]] = []
-    step = 0
+    step, pair_tried = 0, False
     while len(current.keys) < int(opts["max_effects"]):
         bar = none if not current.keys else current
         if not pool or bar.heldout_rms <= opts["noise_rms"]:
@@ -719,19 +723,23 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
         steps.append(fits)
         step += 1
         if not _passes(fits[0], bar, current, opts["min_delta"], opts["min_reduction"]):
-            if (step == 1 and int(opts["max_effects"]) >= 2
-                    and none.heldout_rms > opts["max_rms"]):
+            if (not pair_tried and len(current.keys) <= 1 and int(opts["max_effects"]) >= 2
+                    and bar.heldout_rms > opts["max_rms"]):
+                pair_tried = True
                 pairs = _pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried)
                 if pairs:
                     steps.append(pairs)
                     step += 1
-                    if (_passes(pairs[0], none, base, opts["min_delta"],
+                    if (_passes(pairs[0], bar, current, opts["min_delta"],
                                 opts["min_reduction"]) and not _any_vanishes(pairs[0])):
+                        if current.keys:
+                            say(f"the pair {pairs[0].key} replaces {current.key}")
                         current = _densify(ctx, ev, coarse_ev, pairs[0], say)
                         chosen_ids = set(current.ids)
-                        pool = [k for k in pool if CANDIDATES[k].id not in chosen_ids]
+                        pool = [k for k in keys if CANDIDATES[k].id not in chosen_ids]
                         continue
-                    say(f"the best pair, {pairs[0].key}, does not pass against 'none'")
+                    say(f"the best pair, {pairs[0].key}, does not pass against "
+                        + ("'none'" if not current.keys else current.key))
             break
         current = _densify(ctx, ev, coarse_ev, fits[0], say)
         chosen_ids = set(current.ids)
