@@ -192,7 +192,7 @@ def refine(costs: HypothesisCosts, start: Point, free: Sequence[int], maxfev: in
            ) -> tuple[float, Point]:
     """Local refinement of ``free`` coordinates from ``start``: bounded Brent within one grid
     step along a single non-periodic coordinate, Nelder-Mead (wrapping periodic ones)
-    otherwise. Returns the best (rss, point) seen, never worse than the start."""
+    otherwise. Returns the best (rss, point) evaluated, never worse than the start."""
     hyp = costs.hyp
     specs, u0 = hyp.specs, hyp.unit(start)
     free = list(free)
@@ -204,8 +204,16 @@ def refine(costs: HypothesisCosts, start: Point, free: Sequence[int], maxfev: in
         u[free] = x
         return hyp.from_unit(u)
 
+    # Nelder-Mead stopped by maxfev drops the iteration it was in, with a better point it
+    # may just have evaluated (blind-16: 123.4 seen, 158.0 returned): keep the best seen
+    seen: list[tuple[float, Point]] = [(costs.rss(start), start)]
+
     def cost(x: np.ndarray) -> float:
-        return costs.rss(at(x))
+        point = at(x)
+        r = costs.rss(point)
+        if r < seen[0][0]:
+            seen[0] = (r, point)
+        return r
 
     steps = np.array([0.5 / max(specs[i].grid - 1, 1) for i in free])
     one = len(free) == 1 and not getattr(specs[free[0]], "periodic", False)
@@ -223,7 +231,7 @@ def refine(costs: HypothesisCosts, start: Point, free: Sequence[int], maxfev: in
                               options={"initial_simplex": simplex, "maxfev": maxfev,
                                        "xatol": 1e-3, "fatol": 1e-3})
         found = (float(r.fun), at(r.x))
-    return min([found, (costs.rss(start), start)])
+    return min([found, seen[0]])
 
 
 def profile_interval(hyp: Hypothesis, points: list[Point], rss: np.ndarray, n: int
@@ -502,6 +510,10 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     points = list(costs.points) or [start]
     event_rss = costs.event_rss(points)
     point_rss = event_rss.sum(axis=1)
+    if points and float(point_rss.min()) < best_rss:  # the fit is the best point evaluated:
+        # its profile interval, drawn over every point, must contain it
+        i = int(np.argmin(point_rss))
+        best_rss, best = float(point_rss[i]), points[i]
     specs = hyp.specs
     intervals = profile_interval(hyp, points, point_rss, n) if specs else []
     h = score_folds(costs, folds, points, event_rss)
