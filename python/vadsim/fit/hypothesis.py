@@ -204,34 +204,33 @@ def refine(costs: HypothesisCosts, start: Point, free: Sequence[int], maxfev: in
         u[free] = x
         return hyp.from_unit(u)
 
-    # Nelder-Mead stopped by maxfev drops the iteration it was in, with a better point it
-    # may just have evaluated (blind-16: 123.4 seen, 158.0 returned): keep the best seen
-    seen: list[tuple[float, Point]] = [(costs.rss(start), start)]
+    # the best point evaluated, not the optimiser's answer: Nelder-Mead stopped by maxfev
+    # drops the iteration it was in, with a better point it may just have evaluated
+    # (blind-16: 123.4 evaluated, 158.0 returned)
+    best = (costs.rss(start), start)
 
     def cost(x: np.ndarray) -> float:
+        nonlocal best
         point = at(x)
         r = costs.rss(point)
-        if r < seen[0][0]:
-            seen[0] = (r, point)
+        if r < best[0]:
+            best = (r, point)
         return r
 
     steps = np.array([0.5 / max(specs[i].grid - 1, 1) for i in free])
     one = len(free) == 1 and not getattr(specs[free[0]], "periodic", False)
     if one:
         lo, hi = max(0.0, u0[free[0]] - 2 * steps[0]), min(1.0, u0[free[0]] + 2 * steps[0])
-        r = optimize.minimize_scalar(lambda x: cost(np.array([x])), bounds=(lo, hi),
-                                     method="bounded",
-                                     options={"maxiter": maxfev, "xatol": 1e-3})
-        found = (float(r.fun), at(np.array([r.x])))
+        optimize.minimize_scalar(lambda x: cost(np.array([x])), bounds=(lo, hi),
+                                 method="bounded", options={"maxiter": maxfev, "xatol": 1e-3})
     else:
         x0 = u0[free]
         simplex = np.vstack([x0] + [x0 + np.eye(len(free))[j] * steps[j]
                                     for j in range(len(free))])
-        r = optimize.minimize(cost, x0, method="Nelder-Mead",
-                              options={"initial_simplex": simplex, "maxfev": maxfev,
-                                       "xatol": 1e-3, "fatol": 1e-3})
-        found = (float(r.fun), at(r.x))
-    return min([found, seen[0]])
+        optimize.minimize(cost, x0, method="Nelder-Mead",
+                          options={"initial_simplex": simplex, "maxfev": maxfev,
+                                   "xatol": 1e-3, "fatol": 1e-3})
+    return best
 
 
 def profile_interval(hyp: Hypothesis, points: list[Point], rss: np.ndarray, n: int
@@ -510,10 +509,6 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     points = list(costs.points) or [start]
     event_rss = costs.event_rss(points)
     point_rss = event_rss.sum(axis=1)
-    if points and float(point_rss.min()) < best_rss:  # the fit is the best point evaluated:
-        # its profile interval, drawn over every point, must contain it
-        i = int(np.argmin(point_rss))
-        best_rss, best = float(point_rss[i]), points[i]
     specs = hyp.specs
     intervals = profile_interval(hyp, points, point_rss, n) if specs else []
     h = score_folds(costs, folds, points, event_rss)
