@@ -873,16 +873,20 @@ def _rescored(current: HypothesisFit, fits: list[HypothesisFit],
                    score=aicc(wider.n_heldout, wider.heldout_rms ** 2, current.k),
                    heldout=wider.heldout, heldout_sim=wider.heldout_sim,
                    fold_values={f: {n: v for n, v in fv.items() if n in own}
-                                for f, fv in wider.fold_values.items()})
+                                for f, fv in wider.fold_values.items()},
+                   predicted_values={f: {n: v for n, v in fv.items() if n in own}
+                                     for f, fv in wider.predicted_values.items()})
 
 
 def _vanishes_in_folds(fit: HypothesisFit) -> bool:
-    """Whether the last-added candidate sits at its null in every fold's chosen point (the
-    fold values are by name: only when the names identify the coordinates)."""
+    """Whether the last-added candidate sits at its null at every point a fold scored its
+    held-out events with (the fold point, or the one that gave the predictive cost; the
+    values are by name: only when the names identify the coordinates)."""
     names = [p.name for p in fit.hypothesis.specs]
     if len(set(names)) != len(names) or not fit.fold_values:
         return False
-    return all(_at_null(fit.keys[-1], fv) for fv in fit.fold_values.values())
+    return all(_at_null(fit.keys[-1], fv) for fv in (*fit.fold_values.values(),
+                                                      *fit.predicted_values.values()))
 
 
 def _unexplained(final: HypothesisFit, flows: Mapping[str, float], max_rms: float

@@ -1,0 +1,110 @@
+"""The held-out cost of a fold: the rise of its training cost that buys the held-out events'
+fit (`vadsim.fit.hypothesis.predictive_cost`), and its use in the folds' scores."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from vadsim.compare import EventEval
+from vadsim.fit.hypothesis import Hypothesis, predictive_cost, score_folds
+from vadsim.fit.nuisance import DEFAULT_NUISANCE
+
+
+@pytest.mark.parametrize("x_e", [0.3, 1.0, 4.0])
+def test_for_a_linear_model_it_is_the_residual_over_its_predictive_variance(x_e):
+    """y = a x + e with unit noise: adding one observation to a least-squares fit raises its
+    cost by r^2 / (1 + h), r the prediction error of the training fit and h = x_e^2 / sum x^2
+    the prediction's own variance. On a dense grid of a the cost must be that, and below the
+    prediction's plain r^2."""
+    rng = np.random.default_rng(7)
+    x = np.array([0.5, 1.0, 1.5, 2.0, 2.5])
+    y = 1.3 * x + rng.normal(size=x.size)
+    y_e = 1.3 * x_e + 2.5  # a held-out observation 2.5 sigma off
+    a = np.linspace(-5.0, 8.0, 260_001)
+    train = ((y[None, :] - a[:, None] * x[None, :]) ** 2).sum(axis=1)
+    test = (y_e - a * x_e) ** 2
+    a_hat = float(np.sum(x * y) / np.sum(x * x))
+    r2 = (y_e - a_hat * x_e) ** 2
+    h = x_e ** 2 / float(np.sum(x * x))
+    cost, via = predictive_cost(train, test, r2)
+    assert cost == pytest.approx(r2 / (1 + h), rel=1e-4)
+    assert via is not None and cost < r2
+
+
+def test_a_flip_within_the_parameters_uncertainty_does_not_decide_it():
+    """An event near a regime boundary flips at the fold's point (cost 400) but is fitted by
+    a point the training events barely tell apart (rise 0.5): its cost is that rise plus its
+    fit there. An event no training-consistent point fits keeps its whole cost."""
+    a = np.linspace(-1.0, 1.0, 201)
+    train = 50.0 * a ** 2  # the fold's optimum at a = 0
+    flipped = np.where(a < 0.1, 400.0, 0.2)
+    cost, via = predictive_cost(train, flipped, at_fold_point=400.0)
+    assert via is not None and a[via] == pytest.approx(0.1)
+    assert cost == pytest.approx(50.0 * 0.1 ** 2 + 0.2)
+    # a real misfit: fitted only where the training cost rises by 50
+    misfit = np.where(a > 0.99, 0.0, 30.0)
+    assert predictive_cost(train, misfit, at_fold_point=30.0) == (30.0, None)
+    # never above the prediction of the fold's own point
+    assert predictive_cost(train, np.full(a.size, 9.0), at_fold_point=4.0) == (4.0, None)
+    assert predictive_cost(np.array([]), np.array([]), at_fold_point=4.0) == (4.0, None)
+
+
+class _Costs:
+    """Stand-in for a hypothesis' evaluations: two residuals per event, the first driven by
+    the WOB scale. The training events pull WOB to 0.99, where the held-out e4 flips (z 30);
+    at WOB 1.0, a rise of 0.75 in the training cost, e4 is fitted."""
+
+    def __init__(self) -> None:
+        self.hyp = Hypothesis((), DEFAULT_NUISANCE)
+        self.eids = ["e1", "e2", "e3", "e4"]
+        self.ev = type("Ev", (), {"keys": {e: ["k_wob", "k_flat"] for e in self.eids}})()
+
+    def z(self, point, e) -> np.ndarray:
+        wob = point[0]
+        if e == "e4":
+            return np.array([30.0 if wob < 0.995 else 10.0 * (wob - 1.0), 0.1])
+        return np.array([50.0 * (wob - 0.99), 0.1])
+
+    def evaluate(self, points, eids=None):
+        eids = eids if eids is not None else self.eids
+        return {(p, e): EventEval(None, self.z(p, e), self.z(p, e) + 1.0)
+                for p in points for e in eids}
+
+
+def test_folds_score_a_flipped_event_at_its_predictive_cost():
+    costs = _Costs()
+    points = [(w, 1.0) for w in (0.98, 0.99, 1.0, 1.01)]
+    event_rss = np.array([[np.sum(costs.z(p, e) ** 2) for e in costs.eids] for p in points])
+    folds = [("lofo-e4", ["e1", "e2", "e3"], ["e4"]), ("lofo-e1", ["e2", "e3", "e4"], ["e1"])]
+    h = score_folds(costs, folds, points, event_rss)
+    # the fold point is WOB 0.99 (training cost 0.03), where e4 flips; WOB 1.0 fits it for a
+    # rise of 3 x 0.5^2 = 0.75 in the training cost
+    assert h.fold_values["lofo-e4"]["wob_scale"] == 0.99
+    assert h.predicted_values["lofo-e4"] == {"wob_scale": 1.0, "theta0": 1.0}
+    z4 = np.array(list(h.held["e4"].values()))
+    assert np.sum(z4 ** 2) == pytest.approx(0.75 + 0.01)
+    assert np.sum(h.sq_lofo[0]) == pytest.approx(0.75 + 0.01)
+    # the residuals keep their signs and proportions (scaled, not replaced)
+    assert z4[0] == 0.0 and z4[1] > 0
+    # e1's fold is not fooled by e4: its fold point is WOB 1.0 (e4 forbids 0.99), and
+    # moving to 0.99 would cost the training events 900
+    assert "lofo-e1" not in h.predicted_values
+    assert np.sum(h.sq_lofo[1]) == pytest.approx(0.25 + 0.01)
+
+
+def test_a_candidate_vanishes_in_the_folds_only_where_every_scoring_point_has_it_at_null():
+    """A fit on top of the current model whose new candidate vanished in every fold lends the
+    current model its held-out score; not when a fold's held-out events were scored at a
+    point where the candidate acts (that score is not one of the current model)."""
+    from dataclasses import replace
+
+    from vadsim.fit.diagnose import _vanishes_in_folds
+    from vadsim.fit.hypothesis import HypothesisFit
+
+    fit = HypothesisFit(keys=("anvil_friction",), nuisance_specs=(), point=(0.0,), k=1,
+                        intervals=[], rss=1.0, n=10, heldout_rms=0.5, heldout_rms_lofo=0.5,
+                        heldout_rms_block=0.5, score=0.0,
+                        fold_values={"lofo-a": {"force": 0.0}, "block": {"force": 0.0}})
+    assert _vanishes_in_folds(fit)
+    assert not _vanishes_in_folds(replace(fit, predicted_values={"lofo-a": {"force": 50.0}}))
+    assert _vanishes_in_folds(replace(fit, predicted_values={"lofo-a": {"force": 0.0}}))
