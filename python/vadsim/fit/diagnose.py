@@ -867,15 +867,17 @@ def _rescored(current: HypothesisFit, fits: list[HypothesisFit],
     say(f"{wider.key} vanished in every fold and held out better ({wider.heldout_rms:.3f} < "
         f"{current.heldout_rms:.3f}): {current.key} takes that score")
     own = {p.name for p in current.hypothesis.specs}
+
+    def current_only(by_fold: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+        return {f: {n: v for n, v in fv.items() if n in own} for f, fv in by_fold.items()}
+
     return replace(current, heldout_rms=wider.heldout_rms,
                    heldout_rms_lofo=wider.heldout_rms_lofo,
                    heldout_rms_block=wider.heldout_rms_block,
                    score=aicc(wider.n_heldout, wider.heldout_rms ** 2, current.k),
                    heldout=wider.heldout, heldout_sim=wider.heldout_sim,
-                   fold_values={f: {n: v for n, v in fv.items() if n in own}
-                                for f, fv in wider.fold_values.items()},
-                   predicted_values={f: {n: v for n, v in fv.items() if n in own}
-                                     for f, fv in wider.predicted_values.items()})
+                   fold_values=current_only(wider.fold_values),
+                   predicted_values=current_only(wider.predicted_values))
 
 
 def _vanishes_in_folds(fit: HypothesisFit) -> bool:

@@ -451,8 +451,8 @@ def score_folds(costs: HypothesisCosts, folds: Sequence[Fold], points: list[Poin
             out.fold_values[name] = dict(zip(names, pt, strict=True))
         res = costs.evaluate([pt], test)
         own = float(sum(np.sum(res[(pt, e)].z ** 2) for e in test))
-        cost, via = predictive_cost(tc, event_rss[:, [eids.index(e) for e in test]].sum(axis=1),
-                                    own) if hyp.specs else (own, None)
+        test_rss = event_rss[:, [eids.index(e) for e in test]].sum(axis=1)
+        cost, via = predictive_cost(tc, test_rss, own) if hyp.specs else (own, None)
         scale, uniform = 1.0, 0.0
         if via is not None:
             # the held-out residuals of the point that buys their fit, scaled so that their
@@ -460,7 +460,7 @@ def score_folds(costs: HypothesisCosts, folds: Sequence[Fold], points: list[Poin
             pt = points[via]
             out.predicted_values[name] = dict(zip(names, pt, strict=True))
             res = costs.evaluate([pt], test)
-            at = float(sum(np.sum(res[(pt, e)].z ** 2) for e in test))
+            at = float(test_rss[via])
             if at > 0:
                 scale = math.sqrt(cost / at)
             else:  # the point fits them exactly: its rise of the training cost is all
