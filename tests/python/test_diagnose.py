@@ -316,9 +316,10 @@ def test_a_pair_with_a_vanished_candidate_is_a_single_effect():
     assert _any_vanishes(replace(pair, point=(64.0, 2.0, 0.0)))   # the friction is gone
 
 
-def _selection_with(monkeypatch, step_fits, pair):
+def _selection_with(monkeypatch, step_fits, pair, screened=None):
     """Forward selection over stand-in fits: ``step_fits`` what each step's screen returns,
-    ``pair`` what the pair step returns (its calls are counted)."""
+    ``pair`` what the pair step returns (None: no pair), ``screened`` what the screen of
+    every pair returns (calls of both are counted, the screen's as ``"screen"``)."""
     from dataclasses import replace
 
     from vadsim.fit import diagnose as dg
@@ -330,9 +331,15 @@ def _selection_with(monkeypatch, step_fits, pair):
 
     def pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried):
         calls.append(base.key)
-        return [pair]
+        return [pair] if pair is not None else []
+
+    def screen(ctx, ev, coarse_ev, base, keys, say, tried, skip):
+        calls.append("screen")
+        assert all(frozenset(f.keys) not in skip for f in screened or [])
+        return list(screened or [])
 
     monkeypatch.setattr(dg, "_pair_step", pair_step)
+    monkeypatch.setattr(dg, "_screen_pairs", screen)
     base = replace(_scored(4.4, k=2, n_heldout=854), rss=10094.0)
     opts = dict(max_effects=3, screen_top=1, noise_rms=1.0, max_rms=2.0, min_delta=10.0,
                 min_reduction=0.3)
@@ -374,7 +381,7 @@ def test_a_pair_replaces_a_single_effect_that_absorbed_half_of_it(monkeypatch):
                    score=law.score - 20.0)
     sel, calls, said = _selection_with(monkeypatch, [[law, *others], [law_res, law_mass]],
                                        weak)
-    assert calls == ["none"] and sel.chosen is law
+    assert calls == ["none", "screen"] and sel.chosen is law
     assert any("does not pass against contact_law" in s for s in said)
 
     # a single effect that leaves nothing unexplained needs no pair
@@ -382,6 +389,74 @@ def test_a_pair_replaces_a_single_effect_that_absorbed_half_of_it(monkeypatch):
     sel, calls, _ = _selection_with(monkeypatch, [[explained, *others], [law_res, law_mass]],
                                     truth)
     assert calls == [] and sel.chosen is explained
+
+
+def test_a_cancelling_pair_is_found_by_the_screen_of_every_pair(monkeypatch):
+    """blind-09 (a hydraulic force on the anvil with a stiffer impact face): each effect alone
+    moves the response the wrong way, so no single probe shows either, and the pair step's
+    prospects do not hold them. The screen of every model-side pair runs after the prospects
+    fail, once, and its pair is chosen if it passes the usual thresholds against "none"; a
+    screened pair that does not pass leaves the campaign unexplained."""
+    from dataclasses import replace
+
+    def fit(keys, point, heldout, rss):
+        return replace(_scored(heldout, k=len(point) + 2, n_heldout=806), keys=keys,
+                       point=point, rss=rss)
+
+    singles = [fit(("sensor_chain[both]",), (1348.0, 5.5), 5.37, 19171.0),
+               fit(("mass[motor]",), (1.25,), 6.06, 19200.0)]
+    wrong = fit(("sensor_chain[x5]", "mass[anvil]"), (190.0, 1.0, 0.77), 5.2, 17000.0)
+    truth = fit(("hydraulic_force[anvil]", "contact_stiffness[impact]"), (40.0, 1.5, 2.0),
+                0.3, 39.0)
+    def run(pair, screened):
+        return _selection_with(monkeypatch, [singles, []], pair, screened)
+
+    sel, calls, said = run(wrong, [truth])
+    assert calls == ["none", "screen"], said
+    assert sel.chosen is truth
+    assert [f.key for f in sel.steps[-2]] == [wrong.key]
+    assert [f.key for f in sel.steps[-1]] == [truth.key]
+    # no prospect at all: the screen still runs
+    sel, calls, _ = run(None, [truth])
+    assert calls == ["none", "screen"] and sel.chosen is truth
+    # the screen's best pair does not pass: nothing is chosen, and nothing runs twice
+    weak = replace(truth, heldout_rms=5.0, heldout_rms_lofo=5.0, heldout_rms_block=5.0)
+    sel, calls, said = run(None, [weak])
+    assert calls == ["none", "screen"] and sel.chosen is None
+    assert any(f"the best pair, {truth.key}, does not pass" in s for s in said)
+
+
+def test_the_pair_screen_covers_every_model_side_pair_once():
+    from vadsim.fit.candidates import CANDIDATES, keys_for
+    from vadsim.fit.diagnose import screen_pairs
+
+    pairs = screen_pairs(keys_for(None))
+    model = [k for k in CANDIDATES if CANDIDATES[k].side == "model"]
+    ids = [CANDIDATES[k].id for k in model]
+    expected = (len(model) * (len(model) - 1)) // 2 - sum(
+        ids.count(i) * (ids.count(i) - 1) // 2 for i in set(ids))
+    assert len(pairs) == len({frozenset(p) for p in pairs}) == expected
+    assert all(CANDIDATES[a].id != CANDIDATES[b].id for a, b in pairs)
+    assert all(CANDIDATES[k].side == "model" for p in pairs for k in p)
+    assert ("hydraulic_force[anvil]", "contact_stiffness[impact]") in pairs
+    assert screen_pairs(["hydraulic_force[anvil]", "sensor_chain[both]", "mass[bit]"]) == [
+        ("hydraulic_force[anvil]", "mass[bit]")]
+
+
+def test_a_grid_caps_the_axes_of_shape_parameters_alone():
+    from vadsim.fit.hypothesis import Hypothesis, grid_points
+    from vadsim.fit.nuisance import NuisanceSpec
+
+    nuis = (NuisanceSpec("wob_scale", 0.85, 1.15, "-", "linear", 1.0),)
+    hyp = Hypothesis(("hydraulic_force[anvil]", "contact_stiffness[impact]"), nuis)
+    start = hyp.round([*Hypothesis(hyp.keys).null_point(), 1.0])
+    pts = grid_points(hyp, start, range(hyp.n_physics), 5, shape_per_axis=3)
+    assert len(pts) == 5 * 3 * 5
+    f_ref, n, factor = (sorted({p[i] for p in pts}) for i in range(3))
+    assert len(f_ref) == 5 and len(factor) == 5 and n == [1.0, 2.0, 3.0]
+    assert 50.0 in f_ref and 2.0 in factor  # the screen's point nearest blind-09's truth
+    assert all(p[3] == 1.0 for p in pts)
+    assert len(grid_points(hyp, start, range(hyp.n_physics), 5)) == 125
 
 
 @pytest.fixture(scope="module")
@@ -554,3 +629,22 @@ def test_cli_names_a_bad_nuisance(capsys):
 def test_cli_names_a_bad_threshold(capsys):
     assert main(["diagnose", "thesis:7in-cde", "--min-reduction", "1.5"]) == 2
     assert "min_reduction = 1.5" in capsys.readouterr().err
+
+
+def test_a_pairs_fit_refines_both_candidates_jointly_after_its_joint_grid():
+    """A pair's joint grid can end a grid step from a narrow basin (blind-09: the grid point
+    (50, 1.0, 2.2) at cost 4,451, the truth (40, 1.5, 2.0) at 39); a pair's full fit then
+    refines every candidate parameter jointly, which a single extension does not."""
+    from vadsim.fit.diagnose import PAIR_REFINE_PER_PARAM, _candidate_stages
+    from vadsim.fit.hypothesis import Hypothesis
+    from vadsim.fit.nuisance import DEFAULT_NUISANCE
+
+    hyp = Hypothesis(("hydraulic_force[anvil]", "contact_stiffness[impact]"), DEFAULT_NUISANCE)
+    physics = (0, 1, 2)
+    stages = _candidate_stages(hyp, 1000.0, probed=True, pair=True)
+    joint_grid = next(i for i, st in enumerate(stages) if st.grid == physics)
+    refined = [i for i, st in enumerate(stages) if st.grid is None and st.refine == physics]
+    assert refined and refined[0] > joint_grid
+    assert stages[refined[0]].maxfev == PAIR_REFINE_PER_PARAM * 3 >= 48
+    single = _candidate_stages(hyp, 1000.0, probed=True)
+    assert not [st for st in single if st.grid is None and st.refine == physics]

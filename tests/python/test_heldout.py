@@ -108,3 +108,43 @@ def test_a_candidate_vanishes_in_the_folds_only_where_every_scoring_point_has_it
     assert _vanishes_in_folds(fit)
     assert not _vanishes_in_folds(replace(fit, predicted_values={"lofo-a": {"force": 50.0}}))
     assert _vanishes_in_folds(replace(fit, predicted_values={"lofo-a": {"force": 0.0}}))
+
+
+class _Evaluator:
+    """Stand-in for the comparison engine (the interface ``fit_hypothesis`` uses): one
+    residual per event, zero at anvil friction 100 N/kg, and a flat one."""
+
+    def __init__(self, eids) -> None:
+        self.keys = {e: ["k_force", "k_flat"] for e in eids}
+        self.n_evals = 0
+
+    def evaluate(self, items, eids):
+        out = {}
+        for key, _change in items:
+            force = 0.0 if key == "base" else key[1][0]
+            for i, e in enumerate(eids):
+                z = np.array([(force - 100.0) / (20.0 + i), 0.1])
+                out[(key, e)] = EventEval(None, z, z)
+                self.n_evals += 1
+        return out
+
+
+def test_a_fit_on_events_that_leave_no_flow_block_scores_its_flow_folds_alone():
+    """The pair screen probes the events the base model fits worst; where those are the
+    highest flows, the flow block keeps no training event and is dropped. The fit then scores
+    on the leave-one-flow-out folds alone (its block RMS is NaN); with no fold at all it says
+    so by name."""
+    import math
+
+    from vadsim.fit.hypothesis import Stage, fit_hypothesis
+
+    eids = ["e08", "e09", "e10"]
+    lofo = [(f"lofo {e}", [x for x in eids if x != e], [e]) for e in eids]
+    hyp = Hypothesis(("anvil_friction",))
+    stages = [Stage(grid=(0,), refine=(), maxfev=0, max_per_axis=5)]
+    fit = fit_hypothesis(_Evaluator(eids), hyp, hyp.null_point(), stages, lofo, eids)
+    assert fit.point == (100.0,)
+    assert fit.heldout_rms == pytest.approx(fit.heldout_rms_lofo) and fit.heldout_rms < 0.2
+    assert math.isnan(fit.heldout_rms_block)
+    with pytest.raises(ValueError, match="anvil_friction: no fold has both"):
+        fit_hypothesis(_Evaluator(eids), hyp, hyp.null_point(), stages, [], eids)

@@ -42,7 +42,7 @@ import math
 import multiprocessing as mp
 import os
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -118,6 +118,32 @@ PAIR_MIN_CUT = 0.3
 PAIR_FULL = 2
 """Pairs fully fitted in a pair step (:func:`_pair_step`): the ones whose joint probes cut the
 cost most."""
+
+PAIR_REFINE_PER_PARAM = 16
+"""Evaluations per candidate parameter of a pair's joint refinement
+(:func:`_candidate_stages`): measured on blind-09, 8 per parameter (24) stopped at cost
+1,893, 16 (48) reached 68 from 4,451."""
+
+PAIR_SCREEN_EVENTS = 3
+"""Events the screen of every model-side pair (:func:`_screen_pairs`) evaluates: those the
+calibrated base model fits worst (an effect pair that cancels elsewhere shows there)."""
+
+PAIR_SCREEN_SHAPE_PER_AXIS = 3
+"""Grid points per axis, in that screen, of a parameter without a null (a flow exponent, a
+contact law's shape); the others keep :data:`PROBE_PER_AXIS`. Measured on blind-09 (143
+pairs, 7,995 points on 3 events): the true pair second of 143."""
+
+PAIR_SCREEN_MIN_GAIN = 0.3
+"""Cut in training cost on the screen's events, against the base model at the same
+nuisance values, that a pair's screen probe must make to earn a full fit (blind-09: the true
+pair 0.509 of the base cost on a coarse grid whose nearest point is 25 % off in force, where
+the truth leaves 0.002)."""
+
+PAIR_SCREEN_FULL = 3
+"""Pairs fully fitted after the screen: the ones whose probes cut the cost most."""
+
+PAIR_SCREEN_REPORT = 10
+"""Screen probes kept in the report (``pairs_probed``), best first."""
 
 PROBE_CYCLE_FRACTION = 2.0 / 3.0
 """A probe's run length and analysed window as a fraction of the diagnosis' (300/200 cycles
@@ -269,12 +295,16 @@ class Diagnosis:
                              f"({f.heldout_rms_lofo:.2f}/{f.heldout_rms_block:.2f}) "
                              + (f"{'probe':>9s}" if f.probe else f"{f.score:9.1f}")
                              + f"  {_params_text(f)}")
-        if self.pairs:
-            lines.append("pair step (joint probes, RSS on the probe events; best single "
-                         f"{self.pairs[0]['single_rss']:.1f}): "
-                         + ", ".join(f"{q['pair']} {q['probe_rss']:.1f}"
-                                     + (" (fitted)" if q["fitted"] else "")
-                                     for q in self.pairs))
+        for screen, what in ((False, "pair step (joint probes, RSS on the probe events; "
+                                     "best single"),
+                             (True, "pair screen (every model-side pair, best "
+                                    f"{PAIR_SCREEN_REPORT}; RSS on the worst events; base")):
+            rows = [q for q in self.pairs if bool(q.get("screen")) == screen]
+            if rows:
+                lines.append(f"{what} {rows[0]['single_rss']:.1f}): "
+                             + ", ".join(f"{q['pair']} {q['probe_rss']:.1f}"
+                                         + (" (fitted)" if q["fitted"] else "")
+                                         for q in rows))
         lines.append(self.verdict_text())
         if self.prediction:
             p = self.prediction
@@ -383,8 +413,8 @@ def _model_side(hyp: Hypothesis, keys: Sequence[str] | None = None) -> bool:
     return any(CANDIDATES[k].side == "model" for k in (hyp.keys if keys is None else keys))
 
 
-def _candidate_stages(hyp: Hypothesis, start_rss: float, probed: bool = False
-                      ) -> list[Stage]:
+def _candidate_stages(hyp: Hypothesis, start_rss: float, probed: bool = False,
+                      pair: bool = False) -> list[Stage]:
     """The last candidate of ``hyp``: a grid over its parameters (the others held, at the
     current nuisance values and at the nominal ones: those fitted without the right physics
     absorb part of a real effect) and a local refinement. On top of chosen effects, a
@@ -394,7 +424,14 @@ def _candidate_stages(hyp: Hypothesis, start_rss: float, probed: bool = False
 
     ``probed``: the start is the best point of the candidate's screening probe (a grid on
     a subset of events, around the current and the nominal nuisance values), so the first
-    grid is laid around that point only."""
+    grid is laid around that point only.
+
+    ``pair``: both candidates are new (a pair step's): after the joint grid, a refinement of
+    every candidate parameter jointly (:data:`PAIR_REFINE_PER_PARAM` evaluations per
+    parameter), since the joint grid's best point can sit a grid step from a narrow basin
+    that the coordinate stages do not walk into (blind-09: from the grid point (50, 1.0,
+    2.2) at cost 4,451 the stages ended there; this refinement reaches (39.7, 1.52, 1.99)
+    at 68, the truth (40, 1.5, 2.0) costing 39)."""
     *chosen, new = hyp.coordinates()
     first = new[0]
     every = tuple(range(len(hyp.specs)))
@@ -412,6 +449,10 @@ def _candidate_stages(hyp: Hypothesis, start_rss: float, probed: bool = False
         # held-out RMS 2.73; with, at 0.31, values within 5 % of the truth)
         stages.append(Stage(grid=tuple(range(hyp.n_physics)), refine=(), maxfev=0,
                             max_per_axis=5, coarse=_model_side(hyp), nominal_anchor=True))
+        if pair:
+            physics = tuple(range(hyp.n_physics))
+            stages.append(Stage(grid=None, refine=physics,
+                                maxfev=PAIR_REFINE_PER_PARAM * len(physics)))
     for own, key in zip(chosen, hyp.keys, strict=False):
         stages.append(Stage(grid=own, refine=(), maxfev=0, max_per_axis=5,
                             nominal_anchor=True, coarse=_model_side(hyp, [key])))
@@ -481,6 +522,8 @@ class _Context:
     noise: Mapping[str, float] = field(default_factory=dict)
     """Each sensor's noise (g) the model's measurement adds, estimated once from the
     recordings (:func:`vadsim.compare.recorded_noise_g`)."""
+    worst_eids: tuple[str, ...] = ()
+    """The events the calibrated base model fits worst, worst first (the pair screen's)."""
 
     def evaluator(self, probe: bool, workers: int) -> CampaignEvaluator:
         """A comparison engine at the diagnosis' fidelity or at a probe's."""
@@ -516,12 +559,18 @@ def _probe_subset(camp: Campaign, folds: Sequence[Fold], n: int,
     pick = sorted({int(round(i)) for i in np.linspace(0, len(rest) - 1, n - len(worst))})
     chosen = worst | {rest[i].id for i in pick}
     eids = tuple(e.id for e in camp.events if e.id in chosen)
+    return eids, _restricted(folds, chosen)
+
+
+def _restricted(folds: Sequence[Fold], chosen: set[str]) -> tuple[Fold, ...]:
+    """The folds restricted to the ``chosen`` events (one left without training or held-out
+    events is dropped)."""
     kept = []
     for name, train, test in folds:
         tr, te = [e for e in train if e in chosen], [e for e in test if e in chosen]
         if tr and te:
             kept.append((name, tr, te))
-    return eids, tuple(kept)
+    return tuple(kept)
 
 
 def _run_job(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator, job: _Job,
@@ -697,7 +746,9 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
     the first step chose one effect, the second step failed and that one effect leaves the
     campaign unexplained (one effect absorbed part of another, e.g. a contact law taking
     part of a mount resonance on blind-12); the pair then replaces the single effect if it
-    passes the thresholds against it."""
+    passes the thresholds against it. Where none of its pairs passes, the screen of every
+    model-side pair (:func:`_screen_pairs`) follows, once, under the same rules: two effects
+    that cancel show in no single probe, so the prospects cannot hold them."""
     current, steps, pool = base, [], list(keys)
     solo: dict[str, HypothesisFit] = {}
     probes: list[HypothesisFit] = []
@@ -726,20 +777,29 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
             if (not pair_tried and len(current.keys) <= 1 and int(opts["max_effects"]) >= 2
                     and bar.heldout_rms > opts["max_rms"]):
                 pair_tried = True
-                pairs = _pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried)
-                if pairs:
+                fitted: set[frozenset[str]] = set()
+                for source in ("prospects", "screen"):
+                    pairs = (_pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried)
+                             if source == "prospects" else
+                             _screen_pairs(ctx, ev, coarse_ev, base, keys, say, tried, fitted))
+                    if not pairs:
+                        continue
+                    fitted |= {frozenset(f.keys) for f in pairs}
                     steps.append(pairs)
                     step += 1
                     if (_passes(pairs[0], bar, current, opts["min_delta"],
                                 opts["min_reduction"]) and not _any_vanishes(pairs[0])):
-                        if current.keys:
-                            say(f"the pair {pairs[0].key} replaces {current.key}")
-                        current = _densify(ctx, ev, coarse_ev, pairs[0], say)
-                        chosen_ids = set(current.ids)
-                        pool = [k for k in keys if CANDIDATES[k].id not in chosen_ids]
-                        continue
+                        break
                     say(f"the best pair, {pairs[0].key}, does not pass against "
                         + ("'none'" if not current.keys else current.key))
+                    pairs = []
+                if pairs:
+                    if current.keys:
+                        say(f"the pair {pairs[0].key} replaces {current.key}")
+                    current = _densify(ctx, ev, coarse_ev, pairs[0], say)
+                    chosen_ids = set(current.ids)
+                    pool = [k for k in keys if CANDIDATES[k].id not in chosen_ids]
+                    continue
             break
         current = _densify(ctx, ev, coarse_ev, fits[0], say)
         chosen_ids = set(current.ids)
@@ -783,8 +843,80 @@ def _pair_step(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluato
     if not promising:
         return []
     full = _fit_all(ctx, [_Job(f.hypothesis, f.point,
-                               tuple(_candidate_stages(f.hypothesis, base.rss, probed=True)))
+                               tuple(_candidate_stages(f.hypothesis, base.rss, probed=True,
+                                                     pair=True)))
                           for f in promising[:PAIR_FULL]], ev, coarse_ev, say)
+    return sorted(full, key=lambda f: (_any_vanishes(f), f.score))
+
+
+def screen_pairs(keys: Sequence[str]) -> list[tuple[str, str]]:
+    """Every pair of model-side candidates of different ids among ``keys`` (143 of the
+    default list): what :func:`_screen_pairs` probes jointly. Measurement-side ones are left
+    out: they only re-measure the model's runs, so each shows alone in the first step's
+    finer probes (12 points per axis)."""
+    model = [k for k in keys if CANDIDATES[k].side == "model"]
+    return [(a, b) for i, a in enumerate(model) for b in model[i + 1:]
+            if CANDIDATES[a].id != CANDIDATES[b].id]
+
+
+def _screen_pairs(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                  base: HypothesisFit, keys: Sequence[str], say: Callable[[str], None],
+                  tried: list[dict[str, Any]] | None = None,
+                  skip: Collection[frozenset[str]] = ()) -> list[HypothesisFit]:
+    """The last resort for two effects that cancel: a joint probe of every model-side pair
+    (:func:`screen_pairs`, except the ``skip`` ones, fitted already) on the
+    :data:`PAIR_SCREEN_EVENTS` events the calibrated base model fits worst, then full fits of
+    the :data:`PAIR_SCREEN_FULL` best whose probes cut the base cost there by
+    :data:`PAIR_SCREEN_MIN_GAIN`; best first, or none.
+
+    Why every pair: where each effect alone moves the response the wrong way, no
+    single-candidate probe shows either (blind-09, a hydraulic force on the anvil with a
+    stiffer impact face: the force alone at its true value costs 23,251, the stiffness alone
+    29,980, the base model 15,701 and the two together 31), and no sum of their single probes
+    does either (measured: that pair 185th of 222 by the best sum of probe residuals). Only a
+    joint probe sees them. The probes run at the nuisance values (calibrated or nominal) where
+    the base model fits these events better: the calibration absorbs what it can of the
+    effects."""
+    eids = [e for e in ctx.worst_eids[:PAIR_SCREEN_EVENTS]]
+    pairs = [(a, b) for a, b in screen_pairs(keys) if frozenset((a, b)) not in skip]
+    if len(eids) < 2 or not pairs:
+        return []
+    hyp0 = base.hypothesis
+    anchors = list(dict.fromkeys([base.point, hyp0.null_point()]))
+    c0 = coarse_ev.n_evals
+    base_rss = HypothesisCosts(coarse_ev, hyp0, eids).event_rss(anchors).sum(axis=1)
+    ev.n_evals += coarse_ev.n_evals - c0
+    at = int(np.argmin(base_rss))
+    anchor, base_cost = anchors[at], float(base_rss[at])
+    say(f"pair screen: joint probes of {len(pairs)} model-side pairs on "
+        f"{', '.join(eids)} at {'the calibrated' if at == 0 else 'the nominal'} nuisance "
+        f"values (base cost {base_cost:.1f})")
+    jobs = []
+    for a, b in pairs:
+        hyp = Hypothesis((a, b), hyp0.nuisance)
+        jobs.append(_Job(hyp, hyp.round([*Hypothesis((a, b)).null_point(), *anchor]),
+                         (Stage(grid=tuple(range(hyp.n_physics)), refine=(), maxfev=0,
+                                max_per_axis=PROBE_PER_AXIS,
+                                shape_per_axis=PAIR_SCREEN_SHAPE_PER_AXIS),),
+                         probe=True))
+    sctx = replace(ctx, probe_eids=tuple(eids),
+                   probe_folds=_restricted(ctx.folds, set(eids)))
+    probes = sorted(_fit_all(sctx, jobs, ev, coarse_ev, lambda _m: None), key=lambda f: f.rss)
+    promising = [f for f in probes
+                 if f.rss <= (1.0 - PAIR_SCREEN_MIN_GAIN) * base_cost][:PAIR_SCREEN_FULL]
+    say("pair screen: " + ("; ".join(f"{f.key} probe RSS {f.rss:.1f}" for f in promising)
+                           or "none") + f" against {base_cost:.1f} for the base model")
+    if tried is not None:
+        fitted = {f.key for f in promising}
+        tried.extend({"pair": f.key, "probe_rss": f.rss, "single_rss": base_cost,
+                      "fitted": f.key in fitted, "screen": True}
+                     for f in probes[:PAIR_SCREEN_REPORT])
+    if not promising:
+        return []
+    full = _fit_all(ctx, [_Job(f.hypothesis, f.point,
+                               tuple(_candidate_stages(f.hypothesis, base.rss, probed=True,
+                                                     pair=True)))
+                          for f in promising], ev, coarse_ev, say)
     return sorted(full, key=lambda f: (_any_vanishes(f), f.score))
 
 
@@ -960,7 +1092,9 @@ def diagnose(
         At most ``max_effects`` effects. Each step probes every remaining candidate on a
         coarse grid on top of the chosen ones and fits the ``screen_top`` most promising
         fully. Where the first step chooses nothing and "none" is unexplained, a pair step
-        may add two effects at once (``pair_prospects``: effects that need each other).
+        may add two effects at once (``pair_prospects``: effects that need each other), and
+        where its pairs do not pass, a screen of every model-side pair (``screen_pairs``:
+        effects that cancel, so that neither shows alone).
     max_rms
         Held-out RMS standardised residual above which the final model does not explain the
         campaign (verdict ``"unexplained"``).
@@ -1018,7 +1152,8 @@ def diagnose(
         misfit = {e: float(np.sqrt(np.mean(np.square(base_eval[(base.point, e)].z))))
                   for e in eids}
         probe_eids, probe_folds = _probe_subset(camp, folds, PROBE_EVENTS, misfit)
-        ctx = replace(ctx, probe_eids=probe_eids, probe_folds=probe_folds)
+        ctx = replace(ctx, probe_eids=probe_eids, probe_folds=probe_folds,
+                      worst_eids=tuple(sorted(misfit, key=lambda e: -misfit[e])))
         none = none_model(base, plain)
         sel = _forward_selection(ctx, ev, coarse_ev, base, none, keys, opts, say, b.update)
         final = sel.chosen or none

@@ -170,15 +170,19 @@ class HypothesisCosts:
 # ------------------------------------------------------------------------------- search stages
 
 def grid_points(hyp: Hypothesis, start: Point, free: Sequence[int],
-                max_per_axis: int | None = None) -> list[Point]:
+                max_per_axis: int | None = None, shape_per_axis: int | None = None
+                ) -> list[Point]:
     """The grid over the ``free`` coordinates (each spec's ``grid`` points, at most
-    ``max_per_axis``; a periodic one starts at ``start``), the others held at ``start``.
-    The start point itself is always included."""
+    ``max_per_axis``, and at most ``shape_per_axis`` for a candidate parameter without a
+    null, e.g. a flow exponent; a periodic one starts at ``start``), the others held at
+    ``start``. The start point itself is always included."""
     specs, u0 = hyp.specs, hyp.unit(start)
     axes = []
     for i in free:
         p = specs[i]
         n = p.grid if max_per_axis is None else min(p.grid, max_per_axis)
+        if shape_per_axis is not None and not isinstance(p, NuisanceSpec) and p.null is None:
+            n = min(n, shape_per_axis)
         if isinstance(p, NuisanceSpec) and p.periodic:
             axes.append([(u0[i] + k / n) % 1.0 for k in range(n)])
         else:
@@ -489,7 +493,9 @@ class Stage:
     values (the ones fitted without the right physics absorb part of a real effect).
     ``coarse``: the grid is evaluated on the coarse engine where the fit has one (a subset of
     events, shorter runs) and only its :data:`COARSE_SEEDS` best points at full fidelity --
-    a grid only has to find the basin."""
+    a grid only has to find the basin. ``shape_per_axis``: fewer grid points for the
+    parameters without a null (a shape, e.g. a flow exponent), where a grid over many
+    hypotheses would otherwise cost the product of every axis."""
 
     grid: tuple[int, ...] | None
     refine: tuple[int, ...]
@@ -499,6 +505,7 @@ class Stage:
     if_rss_below: float = math.inf
     nominal_anchor: bool = False
     coarse: bool = False
+    shape_per_axis: int | None = None
 
 
 def _run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
@@ -517,7 +524,8 @@ def _run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
                                      *(float(p.null or 0.0) for p in hyp.nuisance)])
                 anchors += [nominal] if nominal != best else []
             pts = list(dict.fromkeys(p for a in anchors
-                                     for p in grid_points(hyp, a, st.grid, st.max_per_axis)))
+                                     for p in grid_points(hyp, a, st.grid, st.max_per_axis,
+                                                             st.shape_per_axis)))
             if st.coarse and coarse is not None:
                 rough = coarse.event_rss(pts).sum(axis=1)
                 pts = [pts[i] for i in np.argsort(rough)[:max(st.starts, COARSE_SEEDS)]]
@@ -531,6 +539,12 @@ def _run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
             if r < best_rss:
                 best_rss, best = r, p
     return best_rss, best
+
+
+def _rms(parts: Sequence[np.ndarray]) -> float:
+    """RMS over the folds of one kind; NaN where there is none (a probe on a subset of
+    events whose highest flows are all chosen keeps no flow block with training events)."""
+    return math.sqrt(float(np.concatenate(parts).mean())) if parts else math.nan
 
 
 def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
@@ -563,14 +577,16 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     specs = hyp.specs
     intervals = profile_interval(hyp, points, point_rss, n) if specs else []
     h = score_folds(costs, folds, points, event_rss)
+    if not h.sq_lofo + h.sq_block:
+        raise ValueError(f"{hyp.key}: no fold has both training and held-out events among "
+                         f"{', '.join(eids)}")
     all_sq = np.concatenate(h.sq_lofo + h.sq_block)
     mse = float(all_sq.mean())
     k = len(specs)
     fit = HypothesisFit(
         keys=hyp.keys, nuisance_specs=hyp.nuisance, point=best, k=k, intervals=intervals,
         rss=best_rss, n=n, heldout_rms=math.sqrt(mse),
-        heldout_rms_lofo=math.sqrt(float(np.concatenate(h.sq_lofo).mean())),
-        heldout_rms_block=math.sqrt(float(np.concatenate(h.sq_block).mean())),
+        heldout_rms_lofo=_rms(h.sq_lofo), heldout_rms_block=_rms(h.sq_block),
         score=aicc(int(all_sq.size), mse, k), heldout=h.held, heldout_sim=h.held_sim,
         fold_values=h.fold_values, predicted_values=h.predicted_values, n_points=len(points),
         n_evals=ev.n_evals - n0 + (coarse[0].n_evals - c0 if coarse is not None else 0),
