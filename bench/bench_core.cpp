@@ -59,8 +59,11 @@ int main(int argc, char** argv) {
   std::printf("CVODE from %s\n", found && cvode_lib.dli_fname ? cvode_lib.dli_fname : "?");
   std::printf("7in CDE, %.0f gal/min, 400 cycles, rtol %.0e, output %.0f Hz, summary %.0f Hz\n",
               flow, rtol, out_rate, sum_rate);
-  std::printf("runs %d  median %.2f ms  min %.2f ms  max %.2f ms\n", runs, ms[ms.size() / 2],
-              ms.front(), ms.back());
+  if (ms.empty())
+    std::printf("runs 0: the warm-up run alone, untimed (e.g. under callgrind)\n");
+  else
+    std::printf("runs %d  median %.2f ms  min %.2f ms  max %.2f ms\n", runs, ms[ms.size() / 2],
+                ms.front(), ms.back());
   std::printf("steps %ld  rhs %ld  jac %ld  lin_setups %ld  err_fails %ld  root_evals %ld  "
               "reinits %ld  events %zu\n",
               s.steps, s.rhs_evals, s.jac_evals, s.lin_setups, s.err_test_fails, s.root_evals,

@@ -2,6 +2,9 @@
 
 #include <cvode/cvode_ls.h>
 
+#include <cmath>
+#include <limits>
+
 #include "vadsim/fast_kernels.hpp"
 
 namespace vadsim {
@@ -30,6 +33,9 @@ CvodeSolver::CvodeSolver(int n_roots, Method method, double rtol, const State& a
   install_fast_vector_ops(h_.y);
   need(h_.work = N_VClone(h_.y), "N_VClone");
   need(h_.atol = N_VClone(h_.y), "N_VClone");
+  need(h_.capture = N_VCloneEmpty(h_.y), "N_VCloneEmpty");
+  h_.capture->content = &nordsieck_;
+  h_.capture->ops->nvlinearcombination = &CvodeSolver::record_columns;
   for (int i = 0; i < kState; ++i) NV_Ith_S(h_.atol, i) = atol[i];
   N_VConst(0.0, h_.y);
   need(h_.A = SUNDenseMatrix(kState, kState, h_.ctx), "SUNDenseMatrix");
@@ -56,6 +62,7 @@ CvodeSolver::Handles::~Handles() {
   if (A) SUNMatDestroy(A);
   if (atol) N_VDestroy(atol);
   if (work) N_VDestroy(work);
+  if (capture) N_VFreeEmpty(capture);  // its content is the solver's, not a serial vector
   if (y) N_VDestroy(y);
   if (ctx) SUNContext_Free(&ctx);
 }
@@ -107,17 +114,76 @@ void CvodeSolver::restart(double t0, const State& y0, double t_stop) {
   check(CVodeReInit(h_.mem, t0, h_.y), "CVodeReInit", t0);
   initialised_ = true;
   check(CVodeSetStopTime(h_.mem, t_stop), "CVodeSetStopTime", t0);
+  nordsieck_.current = false;
 }
 
 int CvodeSolver::step(double tout, double& tret) {
   const int flag = CVode(h_.mem, tout, h_.y, &tret, CV_ONE_STEP);
   check(flag, "CVode", tret);
   t_last_ = tret;
+  nordsieck_.current = false;
   return flag;
 }
 
+int CvodeSolver::record_columns(int n, sunrealtype*, N_Vector* X, N_Vector z) {
+  auto* nd = static_cast<Nordsieck*>(z->content);
+  nd->seen_n = n;
+  for (int i = 0; i < n && i < Nordsieck::kMaxColumns; ++i) nd->seen[i] = NV_DATA_S(X[i]);
+  return 0;
+}
+
+bool CvodeSolver::load_nordsieck() const {
+  Nordsieck& nd = nordsieck_;
+  check(CVodeGetCurrentTime(h_.mem, &nd.tn), "CVodeGetCurrentTime", t_last_);
+  // After a step CVODE's h is the step just taken (cvCompleteStep sets hu = h; a new h is
+  // applied only when the next step starts): the h that CVodeGetDky divides by.
+  check(CVodeGetLastStep(h_.mem, &nd.hu), "CVodeGetLastStep", t_last_);
+  check(CVodeGetLastOrder(h_.mem, &nd.q), "CVodeGetLastOrder", t_last_);
+  nd.h = nd.hu;
+  if (nd.q < 0 || nd.q >= Nordsieck::kMaxColumns || !(nd.h != 0)) return false;
+  if (nd.q > nd.captured) {
+    nd.seen_n = 0;
+    check(CVodeGetDky(h_.mem, nd.tn, 0, h_.capture), "CVodeGetDky", nd.tn);
+    if (nd.seen_n != nd.q + 1) return false;  // not the sum CVodeGetDky is known to form
+    for (int j = 0; j <= nd.q; ++j) nd.zn[j] = nd.seen[nd.q - j];
+    nd.captured = nd.q;
+  }
+  nd.current = true;
+  return true;
+}
+
 void CvodeSolver::interpolate(double t, N_Vector out) const {
+  Nordsieck& nd = nordsieck_;
+  if (own_dense_output_ && (nd.current || load_nordsieck())) {
+    // CVodeGetDky's window, with its slack: outside it CVODE reports the error below.
+    const double fuzz = 100.0 * std::numeric_limits<double>::epsilon() *
+                        (std::abs(nd.tn) + std::abs(nd.hu)) * (nd.hu < 0 ? -1.0 : 1.0);
+    const double tp = nd.tn - nd.hu - fuzz, tn1 = nd.tn + fuzz;
+    if (!((t - tp) * (t - tn1) > 0)) {
+      const double s = (t - nd.tn) / nd.h;
+      double c[Nordsieck::kMaxColumns];
+      const double* x[Nordsieck::kMaxColumns];
+      int n = 0;
+      for (int j = nd.q; j >= 0; --j, ++n) {
+        c[n] = 1.0;
+        for (int i = 0; i < j; ++i) c[n] *= s;
+        x[n] = nd.zn[j];
+      }
+      linear_combination(n, c, x, NV_DATA_S(out));
+      return;
+    }
+  }
   check(CVodeGetDky(h_.mem, t, 0, out), "CVodeGetDky", t);
+}
+
+void CvodeSolver::interpolate_with_cvode(double t, N_Vector out) const {
+  check(CVodeGetDky(h_.mem, t, 0, out), "CVodeGetDky", t);
+}
+
+int CvodeSolver::last_order() const {
+  int q = 0;
+  check(CVodeGetLastOrder(h_.mem, &q), "CVodeGetLastOrder", t_last_);
+  return q;
 }
 
 const int* CvodeSolver::roots_found() {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "vadsim/errors.hpp"
 
@@ -48,8 +49,10 @@ Recorder::Recorder(const Model& model, const RunOptions& opts, const Horizon& ho
   sm.rate_hz = opts.summary_rate_hz;
   sm.samples = sum_.size();
   per_window_ = opts.peak_window_s * opts.summary_rate_hz;
-  n_windows_ = static_cast<long>(
-      std::floor((horizon.t_end - horizon.t_window) / opts.peak_window_s + 1e-9));
+  n_windows_ = opts.summary_rate_hz > 0
+                   ? static_cast<long>(std::floor(
+                         (horizon.t_end - horizon.t_window) / opts.peak_window_s + 1e-9))
+                   : 0;
   sm.window_peaks = RowMat7::Zero(std::max(0L, n_windows_), kDof);
 }
 
@@ -59,9 +62,11 @@ void Recorder::size_grids(const RunOptions& opts, const Horizon& h) {
     out_ = TimeGrid(t0, 1.0 / opts.output_rate_hz,
                     grid_count(h.t_end - t0, opts.output_rate_hz, "output_rate_hz", true));
   }
-  const long n_sum = grid_count(h.t_end - h.t_window, opts.summary_rate_hz, "summary_rate_hz",
-                                false);
-  sum_ = TimeGrid(h.t_window, 1.0 / opts.summary_rate_hz, std::max(1L, n_sum - 1));
+  if (opts.summary_rate_hz > 0) {
+    const long n_sum = grid_count(h.t_end - h.t_window, opts.summary_rate_hz,
+                                  "summary_rate_hz", false);
+    sum_ = TimeGrid(h.t_window, 1.0 / opts.summary_rate_hz, std::max(1L, n_sum - 1));
+  }
   sec_ = TimeGrid(0.0, h.period, static_cast<long>(std::floor(opts.cycles * (1 + 1e-12))) + 1);
 }
 
@@ -126,6 +131,8 @@ void Recorder::finish() {
   if (sm.samples > 0) {
     sm.impulse_mean /= static_cast<double>(sm.samples);
     sm.impulse_pos /= static_cast<double>(sm.samples);
+  } else {
+    sm.impulse_mean = sm.impulse_pos = std::numeric_limits<double>::quiet_NaN();
   }
 }
 

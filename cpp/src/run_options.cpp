@@ -35,8 +35,8 @@ void RunOptions::validate() const {
     fail_option("max_step", max_step, "must be 0 (no limit) or in [1e-12, 1e6] s");
   if (!(output_rate_hz == 0 || (output_rate_hz >= 1e-3 && output_rate_hz <= 1e7)))
     fail_option("output_rate_hz", output_rate_hz, "must be 0 (none) or in [0.001, 1e7] Hz");
-  if (!(summary_rate_hz >= 1e-3 && summary_rate_hz <= 1e7))
-    fail_option("summary_rate_hz", summary_rate_hz, "must be in [0.001, 1e7] Hz");
+  if (!(summary_rate_hz == 0 || (summary_rate_hz >= 1e-3 && summary_rate_hz <= 1e7)))
+    fail_option("summary_rate_hz", summary_rate_hz, "must be 0 (none) or in [0.001, 1e7] Hz");
   if (!(peak_window_s >= 1e-4 && peak_window_s <= 1e4))
     fail_option("peak_window_s", peak_window_s, "must be in [1e-4, 1e4] s");
   if (max_steps < 0)

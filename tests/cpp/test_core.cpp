@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "vadsim/cvode_solver.hpp"
 #include "vadsim/integrator.hpp"
 #include "vadsim/model.hpp"
 #include "vadsim/params.hpp"
@@ -1445,6 +1446,88 @@ void test_unidentifiable_constants() {
   CHECK_THROWS(std::invalid_argument, Model{bad}, "L_gap");
 }
 
+// ------------------------------------------------------------------------------------------
+// vadsim's own dense output (CvodeSolver::interpolate) against CVodeGetDky.
+
+struct FixedModes {
+  const Model* model;
+  double flow_gpm;
+  Modes modes;
+};
+
+int fixed_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* data) {
+  const auto* d = static_cast<const FixedModes*>(data);
+  Eigen::Map<State> yd(NV_DATA_S(ydot));
+  d->model->rhs(t, d->flow_gpm, Eigen::Map<const State>(NV_DATA_S(y)), d->modes, yd);
+  return 0;
+}
+
+int fixed_jac(sunrealtype t, N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector,
+              N_Vector) {
+  const auto* d = static_cast<const FixedModes*>(data);
+  Eigen::Map<Mat14> Jm(SM_DATA_D(J));
+  d->model->jacobian(t, d->flow_gpm, Eigen::Map<const State>(NV_DATA_S(y)), d->modes, Jm);
+  return 0;
+}
+
+/// The interpolant vadsim evaluates from CVODE's Nordsieck array is CVODE's own, bit for bit:
+/// at the ends and at random times inside every step, across restarts (CVODE's columns are
+/// captured once and must survive a re-initialisation), for Adams and BDF, and while the order
+/// climbs (a column captured at a low order must be extended when the order grows). Bit
+/// equality, not a tolerance: the diagnosis' fits are sensitive to the last bit of a run.
+void test_dense_output() {
+  Params p;
+  const Model model(p);
+  Modes modes;
+  modes.fill(ContactMode::Open);
+  modes[kRock] = ContactMode::Pushing;  // on bottom: the rock carries the WOB
+  FixedModes data{&model, 300.0, modes};
+  State atol;
+  atol.head<kDof>().setConstant(1e-8);
+  atol.tail<kDof>().setConstant(1e-5);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const Method method : {Method::Adams, Method::BDF}) {
+    CvodeSolver solver(0, method, 1e-6, atol, &data, fixed_rhs, fixed_jac, nullptr);
+    N_Vector mine = N_VClone(solver.y()), theirs = N_VClone(solver.y());
+    State y0 = State::Zero();
+    y0[1] = 2e-3;  // the anvil displaced: it rings against the excitation
+    y0[8] = -0.5;
+    long compared = 0, differing = 0;
+    int max_order = 0;
+    double t = 0;
+    for (int segment = 0; segment < 3; ++segment) {
+      solver.restart(t, y0, 1.0);
+      const double t_segment_end = t + 0.05;
+      double t_prev = t;
+      while (t < t_segment_end) {
+        double tret = 0;
+        solver.step(1.0, tret);
+        max_order = std::max(max_order, solver.last_order());
+        for (int k = 0; k < 6; ++k) {
+          const double tk = k == 0 ? tret : k == 1 ? t_prev : t_prev + unit(rng) * (tret - t_prev);
+          solver.interpolate(tk, mine);
+          solver.interpolate_with_cvode(tk, theirs);
+          ++compared;
+          if (std::memcmp(NV_DATA_S(mine), NV_DATA_S(theirs), sizeof(double) * kState) != 0)
+            ++differing;
+        }
+        t_prev = t = tret;
+      }
+      y0 = Eigen::Map<const State>(NV_DATA_S(solver.y()));
+    }
+    const char* name = method == Method::Adams ? "Adams" : "BDF";
+    std::printf("  %s: %ld samples compared, highest order %d\n", name, compared, max_order);
+    CHECK(differing == 0, name, ": ", differing, " of ", compared, " samples differ from CVodeGetDky");
+    CHECK(compared > 1000, name, ": only ", compared, " samples compared");
+    CHECK(max_order >= 4, name, ": the order never climbed past ", max_order);
+    // Outside the last step CVODE's own error is reported, naming the call and the time.
+    CHECK_THROWS(SolverError, solver.interpolate(t + 1.0, mine), "CVodeGetDky");
+    N_VDestroy(mine);
+    N_VDestroy(theirs);
+  }
+}
+
 int main(int argc, char** argv) {
   const std::map<std::string, std::function<void()>> tests = {
       {"energy_conservation", test_energy_conservation},
@@ -1459,6 +1542,7 @@ int main(int argc, char** argv) {
       {"bad_input", test_bad_input},
       {"interrupt", test_interrupt},
       {"unidentifiable_constants", test_unidentifiable_constants},
+      {"dense_output", test_dense_output},
   };
   if (argc != 2 || !tests.count(argv[1])) {
     std::fprintf(stderr, "usage: %s TEST\ntests:", argc > 0 ? argv[0] : "vadsim_tests");

@@ -300,7 +300,7 @@ def expected_refusals(case: dict) -> tuple[set[str], bool]:
     if not (ms == 0 or 1e-12 <= ms <= 1e6):
         bad.add("max_step")
     sr = opts["summary_rate_hz"]
-    if not (1e-3 <= sr <= 1e7):
+    if not (sr == 0 or 1e-3 <= sr <= 1e7):  # 0: no summary
         bad.add("summary_rate_hz")
     if opts["max_steps"] <= 0:
         bad.add("max_steps")

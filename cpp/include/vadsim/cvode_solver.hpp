@@ -42,8 +42,15 @@ class CvodeSolver {
   /// @brief One internal step (CV_ONE_STEP); returns CV_SUCCESS, CV_ROOT_RETURN or
   /// CV_TSTOP_RETURN, throws on failure.
   int step(double tout, double& tret);
-  /// @brief The interpolated solution at t within the last step (CVODE's dense output).
+  /// @brief The interpolated solution at t within the last step (CVODE's dense output):
+  /// the same polynomial, sums and rounding as CVodeGetDky(t, 0), evaluated here from the
+  /// Nordsieck array (see Nordsieck).
   void interpolate(double t, N_Vector out) const;
+  /// @brief CVodeGetDky(t, 0) itself: the reference interpolate() must equal bit for bit
+  /// (ctest dense_output).
+  void interpolate_with_cvode(double t, N_Vector out) const;
+  /// @brief The order of the last step (CVodeGetLastOrder).
+  int last_order() const;
   /// @brief Which roots fired at the last CV_ROOT_RETURN: +1 rising, -1 falling, 0 none.
   const int* roots_found();
 
@@ -61,11 +68,41 @@ class CvodeSolver {
   static void error_handler(int code, const char* module, const char* function, char* msg,
                             void* data);
 
+  /// @brief vadsim's own evaluation of CVODE's interpolant.
+  ///
+  /// Why: a diagnosis run samples the steady window twice at 20 kHz (the sensor grid and the
+  /// summary), some 400,000 interpolations, and Debian's CVODE is compiled without
+  /// optimisation, so CVodeGetDky's call overhead was 18 % of such a run. The interpolant is
+  /// sum_j s^j zn[j], s = (t - tn) / h, over the Nordsieck array zn[0..q], which CVODE does
+  /// not expose; one CVodeGetDky per change of order into a vector whose linear-combination
+  /// op only records its arguments (CVODE passes zn[q], ..., zn[0]) gives its columns, which
+  /// CVODE allocates once. tn, h and q are read per step through the public getters. The
+  /// coefficients and the sum are formed exactly as CVodeGetDky forms them, with the same
+  /// kernel (linear_combination), so every sample is bit-identical to CVODE's (ctest
+  /// dense_output). Where anything does not fit (an order beyond the columns captured, a t
+  /// outside the last step), CVodeGetDky itself answers.
+  struct Nordsieck {
+    static constexpr int kMaxColumns = 13;  ///< Adams order 12 + 1
+    const double* zn[kMaxColumns] = {};     ///< data of zn[0..captured]
+    int captured = -1;                      ///< highest column captured
+    bool current = false;                   ///< tn, h, q hold for the last step
+    double tn = 0, h = 0, hu = 0;
+    int q = 0;
+    // What the recording op saw in the last CVodeGetDky into the capture vector.
+    int seen_n = 0;
+    const double* seen[kMaxColumns] = {};
+  };
+  /// @brief Reads tn, h and q of the last step, capturing columns when q grew; false when the
+  /// capture did not give what CVodeGetDky is documented to sum (then CVodeGetDky is used).
+  bool load_nordsieck() const;
+  static int record_columns(int n, sunrealtype* c, N_Vector* X, N_Vector z);
+
   /// @brief The SUNDIALS objects; a member, so a constructor that throws half-way still
   /// frees what it had created.
   struct Handles {
     SUNContext ctx = nullptr;
     N_Vector y = nullptr, work = nullptr, atol = nullptr;
+    N_Vector capture = nullptr;  ///< content-less vector whose only op records columns
     SUNMatrix A = nullptr;
     SUNLinearSolver LS = nullptr;
     void* mem = nullptr;
@@ -80,6 +117,8 @@ class CvodeSolver {
   SolverStats done_;
   std::string last_error_;
   int roots_[kMaxRoots] = {};
+  mutable Nordsieck nordsieck_;
+  bool own_dense_output_ = true;
 };
 
 }  // namespace vadsim

@@ -37,6 +37,11 @@ class SchurLU {
   int perm_[kDof];
 };
 
+/// @brief z = sum_i c[i] x[i] over 14-long arrays, accumulated in this order (z may alias
+/// x[0]). The one kernel behind CVODE's N_VLinearCombination and vadsim's own dense output,
+/// so that both round alike.
+void linear_combination(int n, const double* c, const double* const* x, double* z);
+
 /// @brief Install the fixed-size kernels on a serial vector of length 14; its clones (every
 /// vector CVODE allocates from it) copy the table.
 void install_fast_vector_ops(N_Vector v);

@@ -32,7 +32,9 @@ struct RunOptions {
   double max_step = 0;           ///< 0: CVODE's default (unbounded)
   Record record = Record::Window;
   double output_rate_hz = 20000; ///< stored time series (0: none)
-  double summary_rate_hz = 20000;///< the grid of WindowSummary (MODEL.md "full resolution")
+  /// The grid of WindowSummary (MODEL.md "full resolution"); 0: no summary (J* is NaN and
+  /// there are no peak windows), for runs measured from their stored series alone.
+  double summary_rate_hz = 20000;
   double peak_window_s = 0.2;    ///< window of the peak statistics (dissertation section 3.2)
   long max_steps = 0;   ///< step budget, so that a pathological input cannot hang; 0: default
   long max_events = 0;  ///< contact event budget; 0: default

@@ -332,7 +332,8 @@ def simulate(
         at ``output_rate_hz``.
     summary_rate_hz
         The grid of the steady-window summary (J*, 200 ms peaks); 20 kHz is MODEL.md's "full
-        resolution".
+        resolution". 0: no summary (J* is NaN, no peak windows), for a run measured from its
+        stored series alone; the run itself is the same.
     initial_state
         Absolute ``[x1..x7, v1..v7]`` or a previous result (its final state), instead of the
         static equilibrium: continuation along a flow sweep.
