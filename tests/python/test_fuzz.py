@@ -350,15 +350,26 @@ def classify(case: dict) -> tuple[str, str | None]:
         return "ok", f"invalid input was accepted (bad: {sorted(allowed)})"
     checks = {
         "y_end": np.all(np.isfinite(r.y_end)),
-        "impulse_mean": math.isfinite(r.impulse_mean),
-        "impulse_pos": math.isfinite(r.impulse_pos),
-        "window_peaks_g": np.all(np.isfinite(r.window_peaks_g)),
         "poincare": np.all(np.isfinite(r.poincare)),
         "events": np.all(np.isfinite(r.events["time_s"].to_numpy())),
-        "impulse_pos >= max(mean, 0)": r.impulse_pos >= max(r.impulse_mean, 0.0) - 1e-9 * (
-            1 + abs(r.impulse_mean)),
         "impacts >= 0": all(n >= 0 for n in r.impacts.values()),
     }
+    if case["options"]["summary_rate_hz"] == 0:
+        # No summary asked for: the documented contract is J* = NaN and no windows, never
+        # a made-up zero that a caller could mistake for "no impulse".
+        checks.update({
+            "no summary: impulse_mean is NaN": math.isnan(r.impulse_mean),
+            "no summary: impulse_pos is NaN": math.isnan(r.impulse_pos),
+            "no summary: no windows": np.size(r.window_peaks_g) == 0,
+        })
+    else:
+        checks.update({
+            "impulse_mean": math.isfinite(r.impulse_mean),
+            "impulse_pos": math.isfinite(r.impulse_pos),
+            "window_peaks_g": np.all(np.isfinite(r.window_peaks_g)),
+            "impulse_pos >= max(mean, 0)": r.impulse_pos >= max(r.impulse_mean, 0.0) - 1e-9 * (
+                1 + abs(r.impulse_mean)),
+        })
     bad = [k for k, ok in checks.items() if not ok]
     if bad:
         return "ok", f"run succeeded with non-finite or inconsistent outputs: {bad}"
