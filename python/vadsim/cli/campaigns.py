@@ -166,6 +166,9 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
                     help="most effects forward selection adds (3)")
     dg.add_argument("--max-rms", type=float, default=2.0,
                     help="held-out RMS z above which the verdict is 'unexplained' (2)")
+    dg.add_argument("--no-review", action="store_true",
+                    help="skip the review of the chosen model (each effect refitted as its "
+                    "variants, and each one not needed on top of the others dropped)")
     dg.set_defaults(func=_cmd_diagnose)
 
 
@@ -266,6 +269,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
                     max_effects=args.max_effects, max_rms=args.max_rms,
+                    review=not args.no_review,
                     workers=args.workers, progress=not args.quiet, cache=args.cache)
     if args.predict:
         predict(diag, args.predict, workers=args.workers, cache=args.cache)
