@@ -1277,15 +1277,7 @@ def diagnose(
         hyp0 = Hypothesis((), nuis)
         base = _calibrate_base(ctx, ev, coarse_ev, hyp0, say)
         b.update(2)
-        base_eval = HypothesisCosts(ev, hyp0, eids).evaluate([base.point])
-        located, located_events = _locate(camp, ev, {e: base_eval[(base.point, e)]
-                                                      for e in eids})
-        say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
-        misfit = {e: float(np.sqrt(np.mean(np.square(base_eval[(base.point, e)].z))))
-                  for e in eids}
-        probe_eids, probe_folds = _probe_subset(camp, folds, PROBE_EVENTS, misfit)
-        ctx = replace(ctx, probe_eids=probe_eids, probe_folds=probe_folds,
-                      worst_eids=tuple(sorted(misfit, key=lambda e: -misfit[e])))
+        ctx, base_eval, located, located_events = _located(ctx, ev, hyp0, base, say)
         none = none_model(base, plain)
         sel = _forward_selection(ctx, ev, coarse_ev, base, none, keys, opts, say, b.update)
         chosen, reviewed = (_review(ctx, ev, coarse_ev, sel, keys, opts, say) if review
@@ -1309,6 +1301,25 @@ def diagnose(
             elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals, pairs=sel.pairs,
             review=reviewed,
         )
+
+
+def _located(ctx: _Context, ev: CampaignEvaluator, hyp0: Hypothesis, base: HypothesisFit,
+             say: Callable[[str], None]
+             ) -> tuple[_Context, dict[tuple[Point, str], EventEval], list[Mismatch],
+                        list[dict[str, Any]]]:
+    """The calibrated base model's evaluation, where it misses (features, events), and the
+    context with the probe events chosen by its misfit (the worst ones first)."""
+    eids = list(ctx.eids)
+    base_eval = HypothesisCosts(ev, hyp0, eids).evaluate([base.point])
+    located, located_events = _locate(ctx.campaign, ev, {e: base_eval[(base.point, e)]
+                                                         for e in eids})
+    say(f"located: {len(located)} feature(s), {len(located_events)} event(s) with RMS z > 2")
+    misfit = {e: float(np.sqrt(np.mean(np.square(base_eval[(base.point, e)].z))))
+              for e in eids}
+    probe_eids, probe_folds = _probe_subset(ctx.campaign, ctx.folds, PROBE_EVENTS, misfit)
+    ctx = replace(ctx, probe_eids=probe_eids, probe_folds=probe_folds,
+                  worst_eids=tuple(sorted(misfit, key=lambda e: -misfit[e])))
+    return ctx, base_eval, located, located_events
 
 
 def _check_selection(max_effects: int, screen_top: int, max_rms: float,
