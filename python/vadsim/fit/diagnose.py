@@ -31,8 +31,9 @@ physics outside the list:
    held-out RMS is above ``noise_rms``.
 6. **Review.** The chosen model is refitted with each effect as each of its variants (a
    resonance on both sensors for one on x1) from the final values, a better-scoring variant
-   taking its place; then, with two or more effects, without each effect, and one that would
-   not pass the thresholds as the last one added is dropped (:func:`_review`).
+   taking its place; then, with two or more effects, without each effect, and one the
+   held-out error does not need (score ``min_delta`` better and RMS 10 % lower with it) is
+   dropped (:func:`_review`).
 7. **Verdict.** ``"explained"`` when effects were chosen and the final model's held-out RMS is
    at most ``max_rms``; ``"none"`` when nothing was chosen and the calibrated base model is
    within ``max_rms``; ``"unexplained"`` otherwise -- a mismatch no hypothesis explains is
@@ -733,6 +734,19 @@ def _probe_stage(hyp: Hypothesis) -> Stage:
     return Stage(grid=new, refine=(), maxfev=0, max_per_axis=coarse, nominal_anchor=True)
 
 
+def _refit_stages(hyp: Hypothesis, fine: str | None = None) -> list[Stage]:
+    """A chosen model's refit from a nearby start: a grid over each candidate's parameters
+    (5 per axis; ``fine``, a measurement-side candidate just put in, over its own full grid,
+    as its resonance minima are narrow), then every coordinate jointly."""
+    stages = [Stage(grid=own, refine=(), maxfev=0,
+                    max_per_axis=None if key == fine and not _model_side(hyp, [key]) else 5,
+                    coarse=_model_side(hyp, [key]))
+              for own, key in zip(hyp.coordinates(), hyp.keys, strict=True)]
+    every = tuple(range(len(hyp.specs)))
+    stages.append(Stage(grid=None, refine=every, maxfev=10 * len(every)))
+    return stages
+
+
 def _densify(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
              fit: HypothesisFit,
              say: Callable[[str], None]) -> HypothesisFit:
@@ -741,14 +755,9 @@ def _densify(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     choose among as dense a set of points as the next step's hypotheses do: held-out scores
     compared across steps must not differ by how densely each was searched."""
     hyp = fit.hypothesis
-    stages = [Stage(grid=own, refine=(), maxfev=0, max_per_axis=5,
-                    coarse=_model_side(hyp, [key]))
-              for own, key in zip(hyp.coordinates(), hyp.keys, strict=True)]
-    every = tuple(range(len(hyp.specs)))
-    stages.append(Stage(grid=None, refine=every, maxfev=10 * len(every)))
     c0 = coarse_ev.n_evals
-    out = fit_hypothesis(ev, hyp, fit.point, stages, ctx.folds, list(ctx.eids), say,
-                         coarse=(coarse_ev, list(ctx.probe_eids)))
+    out = fit_hypothesis(ev, hyp, fit.point, _refit_stages(hyp), ctx.folds, list(ctx.eids),
+                         say, coarse=(coarse_ev, list(ctx.probe_eids)))
     ev.n_evals += coarse_ev.n_evals - c0
     return out if out.rss <= fit.rss else fit
 
@@ -829,19 +838,6 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
     return _Selection(steps, current if current is not base else None, tried)
 
 
-def _review_stages(hyp: Hypothesis, fine: str | None = None) -> list[Stage]:
-    """A chosen model's refit from a nearby start: a grid over each candidate's parameters
-    (``fine``, a measurement-side candidate just put in: over its own full grid, as its
-    resonance minima are narrow), then every coordinate jointly (:func:`_densify`'s)."""
-    stages = [Stage(grid=own, refine=(), maxfev=0,
-                    max_per_axis=None if key == fine and not _model_side(hyp, [key]) else 5,
-                    coarse=_model_side(hyp, [key]))
-              for own, key in zip(hyp.coordinates(), hyp.keys, strict=True)]
-    every = tuple(range(len(hyp.specs)))
-    stages.append(Stage(grid=None, refine=every, maxfev=10 * len(every)))
-    return stages
-
-
 def _without(fit: HypothesisFit, drop: str, put: str | None = None) -> tuple[Hypothesis, Point]:
     """``fit``'s hypothesis with candidate ``drop`` removed (or replaced by ``put``, a
     variant with the same parameters) and ``fit``'s point for it."""
@@ -897,7 +893,7 @@ def _review(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
         jobs = []
         for s in swaps:
             hyp, start = _without(current, key, s)
-            jobs.append(_Job(hyp, start, tuple(_review_stages(hyp, fine=s))))
+            jobs.append(_Job(hyp, start, tuple(_refit_stages(hyp, fine=s))))
         fits = _fit_all(ctx, jobs, ev, coarse_ev, say)
         best = min(fits, key=lambda f: f.score)
         better = best.score < current.score
@@ -912,7 +908,7 @@ def _review(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
         jobs = []
         for key in current.keys:
             hyp, start = _without(current, key)
-            jobs.append(_Job(hyp, start, tuple(_review_stages(hyp))))
+            jobs.append(_Job(hyp, start, tuple(_refit_stages(hyp))))
         say(f"review: {current.key} refitted without each of its {len(jobs)} effects")
         fits = _fit_all(ctx, jobs, ev, coarse_ev, say)
         cut = min(float(opts["min_reduction"]), REVIEW_MIN_CUT)
