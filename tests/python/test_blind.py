@@ -155,6 +155,29 @@ def test_per_class_rates_gains_nuisance_and_criteria():
     assert "1 of 2" in crit[blind.CRITERIA["heldout"]]["detail"]
 
 
+def test_interval_coverage_counts_true_values_inside_their_reported_intervals():
+    """A found effect's true parameters and the true WOB scale (1 unless set) are scored
+    against the reported 95 % intervals; a missed effect's parameters are not scored."""
+    truth = {"a": _truth("nuisance_effect", HYD, nuisance={"wob_scale": 0.9}),
+             "b": _truth("single", FRI),
+             "c": _truth("null")}
+    a = _result("explained", ["hydraulic_force[anvil]"],
+                {"hydraulic_force": {"f_ref": 61.0, "n": 2.3}}, nuisance={"wob_scale": 0.95})
+    a["intervals"] = {"hydraulic_force": {"f_ref": [55.0, 65.0], "n": [2.1, 2.5]}}
+    a["nuisance"]["wob_scale"]["interval"] = [0.88, 0.97]
+    b = _result("none", [], nuisance={"wob_scale": 1.02})  # friction missed
+    b["nuisance"]["wob_scale"]["interval"] = [1.01, 1.03]
+    c = _result("none", [], nuisance={"wob_scale": 0.99})
+    c["nuisance"]["wob_scale"]["interval"] = [0.95, 1.04]
+    sc = score({"a": a, "b": b, "c": c}, truth)
+    rows = {r["campaign"]: r for r in sc["campaigns"]}
+    assert rows["a"]["interval_covers"] == {"hydraulic_force.f_ref": True,
+                                            "hydraulic_force.n": False, "wob_scale": True}
+    assert rows["b"]["interval_covers"] == {"wob_scale": False}
+    assert rows["c"]["interval_covers"] == {"wob_scale": True}
+    assert (sc["overall"]["intervals_covering"], sc["overall"]["intervals_scored"]) == (3, 5)
+
+
 def test_criteria_without_campaigns_to_judge_are_not_applicable():
     sc = score({"n": _result("none", [])}, {"n": _truth("null")})
     status = {c["criterion"]: c["status"] for c in sc["criteria"]}

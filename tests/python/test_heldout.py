@@ -148,3 +148,98 @@ def test_a_fit_on_events_that_leave_no_flow_block_scores_its_flow_folds_alone():
     assert math.isnan(fit.heldout_rms_block)
     with pytest.raises(ValueError, match="anvil_friction: no fold has both"):
         fit_hypothesis(_Evaluator(eids), hyp, hyp.null_point(), stages, [], eids)
+
+
+class _CorrelatedEvaluator:
+    """Stand-in for the comparison engine whose events each repeat one residual ``copies``
+    times: ``(force - target_e) / 20`` -- features of one record that share its error, as a
+    folded waveform's phase bins do."""
+
+    def __init__(self, targets: dict[str, float], copies: int) -> None:
+        self.targets, self.copies = targets, copies
+        self.keys = {e: [f"k{i}" for i in range(copies)] for e in targets}
+        self.n_evals = 0
+
+    def evaluate(self, items, eids):
+        out = {}
+        for key, _change in items:
+            force = 0.0 if key == "base" else key[1][0]
+            for e in eids:
+                z = np.full(self.copies, (force - self.targets[e]) / 20.0)
+                out[(key, e)] = EventEval(None, z, z)
+                self.n_evals += 1
+        return out
+
+
+_TARGETS = dict(zip([f"e{i:02d}" for i in range(1, 9)],
+                    [94.0, 104.0, 98.0, 108.0, 95.0, 103.0, 101.0, 97.0], strict=True))
+
+
+def _t_interval(values) -> tuple[float, float]:
+    """The textbook 95 % t-interval of a mean (what the jackknife of a mean must give)."""
+    from scipy import stats
+
+    v = np.asarray(values, dtype=float)
+    half = stats.t.ppf(0.975, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size)
+    return float(v.mean() - half), float(v.mean() + half)
+
+
+def test_the_jackknife_interval_of_a_mean_is_the_t_interval():
+    """Leaving out each of m values and re-estimating their mean gives the jackknife standard
+    error s / sqrt(m) exactly; the interval is then mean +- t(0.975, m-1) s / sqrt(m)."""
+    from vadsim.fit.hypothesis import jackknife_interval
+
+    hyp = Hypothesis(("anvil_friction",))
+    vals = list(_TARGETS.values())
+    mean = float(np.mean(vals))
+    folds = [((sum(vals) - v) / (len(vals) - 1),) for v in vals]
+    (lo, hi), = jackknife_interval(hyp, (mean,), folds)
+    assert (lo, hi) == pytest.approx(_t_interval(vals), abs=1e-9)
+    # fewer than three folds: no spread to speak of, the point itself
+    assert jackknife_interval(hyp, (mean,), folds[:2]) == [(mean, mean)]
+
+
+def test_a_periodic_constant_jackknifes_across_the_period_edge():
+    """theta0 near 0 with fold estimates on both sides of the edge (0.02 and pi - 0.02 rad):
+    the spread is 0.02 rad, not half the period, and the interval is given unwrapped."""
+    import math
+
+    from vadsim.fit.hypothesis import jackknife_interval
+    from vadsim.fit.nuisance import THETA0
+
+    hyp = Hypothesis((), (THETA0,))
+    folds = [(0.02,), (math.pi - 0.02,), (0.01,), (math.pi - 0.01,)]
+    (lo, hi), = jackknife_interval(hyp, (0.0,), folds)
+    assert -0.2 < lo < 0.0 < hi < 0.2
+    # estimates spread over the whole period: the interval is the period
+    spread = [(0.0,), (0.8,), (1.6,), (2.4,)]
+    assert jackknife_interval(hyp, (1.2,), spread) == [(0.0, pytest.approx(math.pi))]
+
+
+@pytest.mark.parametrize("copies", [1, 100])
+def test_a_fit_interval_does_not_shrink_when_each_event_repeats_its_residual(copies):
+    """A parameter's interval must reflect what the events say, not how many correlated
+    features each carries: with every event's residual repeated 100 times the profile's
+    chi-square threshold shrinks the interval 10-fold, but the leave-one-flow-out jackknife
+    does not. The fit's interval is the t-interval of the events' targets (the analytic
+    answer for this least-squares mean) in both cases: the jackknife gives it."""
+    from vadsim.fit.hypothesis import Stage, fit_hypothesis, profile_interval
+
+    eids = list(_TARGETS)
+    lofo = [(f"flow {i}", [x for x in eids if x != e], [e]) for i, e in enumerate(eids)]
+    hyp = Hypothesis(("anvil_friction",))
+    ev = _CorrelatedEvaluator(_TARGETS, copies)
+    stages = [Stage(grid=(0,), refine=(0,), maxfev=40)]
+    # and points every 0.25 N/kg, so that the profile interval is not widened to far ones
+    dense = [(float(f),) for f in np.arange(85.0, 115.0, 0.25)]
+    fit = fit_hypothesis(ev, hyp, hyp.null_point(), stages, lofo, eids, alternatives=dense)
+    assert fit.point[0] == pytest.approx(np.mean(list(_TARGETS.values())), abs=0.05)
+    lo, hi = fit.intervals[0]
+    t_lo, t_hi = _t_interval(list(_TARGETS.values()))
+    assert (lo, hi) == pytest.approx((t_lo, t_hi), abs=0.05)
+    # and the profile alone would not: with 100 copies it is far narrower than the t-interval
+    pts = sorted(fit.point_rss)
+    (p_lo, p_hi), = profile_interval(hyp, pts, np.array([fit.point_rss[p] for p in pts]),
+                                     fit.n)
+    if copies == 100:
+        assert p_hi - p_lo < 0.5 * (t_hi - t_lo)

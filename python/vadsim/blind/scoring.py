@@ -25,6 +25,9 @@ Rules
 * held-out improvement ``1 - after / before`` on every campaign with an effect.
 * nuisance recovery: ``|wob_scale found - true|`` (true 1 unless set) where the result has
   it; ``theta0`` as the distance modulo pi where the truth sets it.
+* interval coverage: of the true values the diagnosis reports an interval for (every true
+  id's parameters when the id is found, and ``wob_scale``, true 1 unless set), how many lie
+  inside their 95 % interval; a calibrated uncertainty covers about 95 % of them.
 * false alarms over every null-like campaign: the null and nuisance_null classes and the
   nulls of the other classes.
 """
@@ -71,6 +74,11 @@ def normalise_result(r: Mapping[str, Any]) -> dict[str, Any]:
         "keys": None if keys is None else [k for k in keys if k != "none"],
         "parameters": {i: dict(v) for i, v in params.items() if isinstance(v, Mapping)},
         "nuisance": {k: _value(v) for k, v in (r.get("nuisance") or {}).items()},
+        "intervals": {i: {k: (float(v[0]), float(v[1])) for k, v in d.items()}
+                      for i, d in (r.get("intervals") or {}).items()},
+        "nuisance_intervals": {k: (float(v["interval"][0]), float(v["interval"][1]))
+                               for k, v in (r.get("nuisance") or {}).items()
+                               if isinstance(v, Mapping) and v.get("interval")},
         "heldout_before": float(r.get("heldout_error_before", math.nan)),
         "heldout_after": float(r.get("heldout_error_after", math.nan)),
         "elapsed_s": r.get("elapsed_s"),
@@ -102,6 +110,24 @@ def _parameter_errors(truths: Sequence[Mapping[str, Any]], found: set[str],
                 errs[f"{t['id']}.{k}"] = (abs(float(got) / v - 1.0) if v != 0
                                           else abs(float(got)))
     return errs
+
+
+def _coverage(truths: Sequence[Mapping[str, Any]], found: set[str],
+              r: Mapping[str, Any], nuisance_truth: Mapping[str, float]
+              ) -> dict[str, bool]:
+    """``{"id.param" or nuisance name: true value inside its reported interval}`` over the
+    true values the result gives an interval for."""
+    out: dict[str, bool] = {}
+    for t in truths:
+        ivs = r["intervals"].get(t["id"], {}) if t["id"] in found else {}
+        for k, v in t["values"].items():
+            if k in ivs:
+                lo, hi = ivs[k]
+                out[f"{t['id']}.{k}"] = bool(lo <= v <= hi)
+    if "wob_scale" in r["nuisance_intervals"]:
+        lo, hi = r["nuisance_intervals"]["wob_scale"]
+        out["wob_scale"] = bool(lo <= nuisance_truth.get("wob_scale", 1.0) <= hi)
+    return out
 
 
 def _nuisance_errors(truth: Mapping[str, float], found: Mapping[str, float]
@@ -140,6 +166,7 @@ def _row(name: str, r: dict[str, Any], t: dict[str, Any]) -> dict[str, Any]:
         "parameter_error": _parameter_errors(t["truths"], found, r["parameters"]),
         "heldout_before": b, "heldout_after": a, "heldout_improvement": gain,
         "wob_scale_error": nerr["wob_scale"], "theta0_error": nerr["theta0"],
+        "interval_covers": _coverage(t["truths"], found, r, t["nuisance"]),
         "concealment": r["concealment"], "elapsed_s": r["elapsed_s"],
     }
 
@@ -179,6 +206,8 @@ def _summary(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "heldout_improvement_min": _min([r["heldout_improvement"] for r in effect]),
         "wob_scale_error_median": _median([r["wob_scale_error"] for r in rows]),
         "theta0_error_median": _median([r["theta0_error"] for r in rows]),
+        "intervals_covering": sum(sum(r["interval_covers"].values()) for r in rows),
+        "intervals_scored": sum(len(r["interval_covers"]) for r in rows),
         "elapsed_s": float(sum(r["elapsed_s"] or 0.0 for r in rows)),
     }
 

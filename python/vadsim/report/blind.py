@@ -67,6 +67,8 @@ def _summary(sc: dict[str, Any]) -> pd.DataFrame:
             "parameter error (median of medians)": _pct(
                 float(pd.Series(perr).median()) if perr else None, ".1f"),
             "abs wob_scale error (median)": _num(s["wob_scale_error_median"], ".3f"),
+            "truths in 95 % interval": (f"{s['intervals_covering']}/{s['intervals_scored']}"
+                                        if s.get("intervals_scored") else "-"),
             "time (s)": f"{s['elapsed_s']:.0f}",
         })
     return pd.DataFrame(rows).set_index("class")

@@ -105,7 +105,7 @@ def _verdict(diag: Diagnosis) -> dict[str, Any]:
         for key, vals in c.hypothesis.split(c.point)[0].items():
             cand = CANDIDATES[key]
             ivs = cand_iv.get(cand.id, {})
-            params = [f"{p.name} = {fmt_value(vals[p.name])} {p.unit} (95 % profile interval "
+            params = [f"{p.name} = {fmt_value(vals[p.name])} {p.unit} (95 % interval "
                       f"{fmt_value(ivs.get(p.name, (math.nan,))[0])} to "
                       f"{fmt_value(ivs.get(p.name, (math.nan, math.nan))[1])})"
                       for p in cand.params]
