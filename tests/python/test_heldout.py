@@ -243,3 +243,63 @@ def test_a_fit_interval_does_not_shrink_when_each_event_repeats_its_residual(cop
                                      fit.n)
     if copies == 100:
         assert p_hi - p_lo < 0.5 * (t_hi - t_lo)
+
+
+class _TwoParameterEvaluator:
+    """Stand-in engine for anvil friction with the WOB scale: each event pulls the force
+    towards ``a_e`` and the WOB scale towards ``b_e``, one residual each, so every fold's
+    optimum is the mean of its training events' targets."""
+
+    def __init__(self, a: dict[str, float], b: dict[str, float]) -> None:
+        self.a, self.b = a, b
+        self.keys = {e: ["force", "wob"] for e in a}
+        self.n_evals = 0
+
+    def evaluate(self, items, eids):
+        out = {}
+        for key, _change in items:
+            force, wob = (0.0, 1.0) if key == "base" else key[1]
+            for e in eids:
+                z = np.array([(force - self.a[e]) / 20.0, (wob - self.b[e]) / 0.02])
+                out[(key, e)] = EventEval(None, z, z)
+                self.n_evals += 1
+        return out
+
+
+def test_two_coordinates_jackknife_between_the_points_the_fit_evaluated():
+    """With two coordinates refined by Nelder-Mead, a fold's own optimum lies between the
+    evaluated points (here up to 1.7 N/kg from the nearest, about the folds' whole spread).
+    The jackknife reads it from a quadratic through them (no new run): every fold's
+    estimate is the mean of its training targets (the analytic optimum), the jackknife
+    interval as wide as the t-interval, and the fit's interval contains it."""
+    from vadsim.fit.hypothesis import (
+        HypothesisCosts,
+        Stage,
+        fit_hypothesis,
+        fold_estimates,
+        jackknife_interval,
+    )
+    from vadsim.fit.nuisance import WOB_SCALE
+
+    eids = list(_TARGETS)
+    b = dict(zip(eids, [0.97, 1.01, 0.99, 1.04, 0.95, 1.02, 1.0, 0.98], strict=True))
+    lofo = [(f"flow {i}", [x for x in eids if x != e], [e]) for i, e in enumerate(eids)]
+    hyp = Hypothesis(("anvil_friction",), (WOB_SCALE,))
+    ev = _TwoParameterEvaluator(_TARGETS, b)
+    stages = [Stage(grid=(0, 1), refine=(0, 1), maxfev=20)]
+    fit = fit_hypothesis(ev, hyp, hyp.null_point(), stages, lofo, eids)
+    points = list(fit.point_rss)
+    rss = HypothesisCosts(ev, hyp, eids).event_rss(points)
+    trains = [rss[:, [eids.index(x) for x in train]].sum(axis=1) for _n, train, _t in lofo]
+    folds = [tuple(fit.fold_values[name].values()) for name, _tr, _t in lofo]
+    est = fold_estimates(hyp, fit.point, points, trains, folds)
+    exact = [((sum(_TARGETS.values()) - _TARGETS[e]) / 7, (sum(b.values()) - b[e]) / 7)
+             for e in eids]
+    assert np.array(est) == pytest.approx(np.array(exact), abs=1e-3)
+    for j, targets in enumerate((_TARGETS, b)):
+        t_lo, t_hi = _t_interval(list(targets.values()))
+        lo, hi = jackknife_interval(hyp, fit.point, est)[j]
+        # the t-interval's width, centred on the full fit's point
+        assert hi - lo == pytest.approx(t_hi - t_lo, rel=1e-3)
+        assert (lo + hi) / 2 == pytest.approx(fit.point[j], rel=1e-5)
+        assert fit.intervals[j][0] <= lo and fit.intervals[j][1] >= hi

@@ -42,7 +42,7 @@ from vadsim.fit.nuisance import NuisanceSpec
 from vadsim.model.change import ModelChange
 
 __all__ = ["Fold", "Hypothesis", "HypothesisCosts", "HypothesisFit", "Point", "aicc",
-           "fit_hypothesis", "jackknife_interval", "predictive_cost", "widest"]
+           "fit_hypothesis", "fold_estimates", "jackknife_interval", "predictive_cost", "widest"]
 
 Point = tuple[float, ...]
 Fold = tuple[str, list[str], list[str]]
@@ -274,9 +274,10 @@ def jackknife_interval(hyp: Hypothesis, best: Point, fold_points: Sequence[Point
     resonance at 600 Hz reported as 620.1-621.0 Hz). Refitting without each flow's events
     (the leave-one-flow-out folds the held-out score already fits) shows how far the data
     can move the estimate: ``se^2 = (m-1)/m sum (u_i - mean u)^2`` over the ``m`` folds'
-    positions ``u_i`` in the search box (log where the parameter is searched in log,
-    differences wrapped for a periodic constant), then ``best +- t(0.975, m-1) se``, clipped
-    to the box. With fewer than 3 folds the interval is the point itself."""
+    estimates (:func:`fold_estimates`) as positions ``u_i`` in the search box (log where
+    the parameter is searched in log, differences wrapped for a periodic constant), then
+    ``best +- t(0.975, m-1) se``, clipped to the box. With fewer than 3 folds the interval
+    is the point itself."""
     specs = hyp.specs
     m = len(fold_points)
     u0 = hyp.unit(best)
@@ -302,6 +303,75 @@ def jackknife_interval(hyp: Hypothesis, best: Point, fold_points: Sequence[Point
             continue
         lo_u, hi_u = max(u0[j] - half, 0.0), min(u0[j] + half, 1.0)
         out.append((float(p.from_unit(lo_u)), float(p.from_unit(hi_u))))
+    return out
+
+
+def _unit_offsets(hyp: Hypothesis, best: Point, points: Sequence[Point]) -> np.ndarray:
+    """Points as offsets from ``best`` in the unit box (wrapped for a periodic constant)."""
+    u = np.array([hyp.unit(p) for p in points]) - hyp.unit(best)
+    for j, p in enumerate(hyp.specs):
+        if isinstance(p, NuisanceSpec) and p.periodic:
+            u[:, j] = (u[:, j] + 0.5) % 1.0 - 0.5
+    return u
+
+
+def _quadratic_min(x: np.ndarray, c: np.ndarray) -> np.ndarray | None:
+    """Minimum of the quadratic least-squares fit of costs ``c`` at points ``x`` (rows),
+    within the points' bounding box widened by its width on each side (a fold's optimum may
+    lie past a cluster of refinement points, but not far: the fit is local); None where the
+    fit is not a bowl (too few points for its coefficients, or a Hessian that is not
+    positive definite)."""
+    n, k = x.shape
+    iu = np.triu_indices(k)
+    feats = np.hstack([np.ones((n, 1)), x, (x[:, :, None] * x[:, None, :])[:, iu[0], iu[1]]])
+    if n < 2 * feats.shape[1]:
+        return None
+    coef, _res, rank, _sv = np.linalg.lstsq(feats, c, rcond=None)
+    if rank < feats.shape[1]:
+        return None
+    g = coef[1:k + 1]
+    h = np.zeros((k, k))
+    h[iu] = coef[k + 1:]
+    h = h + h.T  # the diagonal doubles, as d2/dx2 of c_ii x_i^2 is 2 c_ii
+    w = np.linalg.eigvalsh(h)
+    if not w[0] > 1e-9 * max(abs(w[-1]), 1e-300):
+        return None
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    return np.clip(np.linalg.solve(h, -g), lo - (hi - lo), hi + (hi - lo))
+
+
+def fold_estimates(hyp: Hypothesis, best: Point, points: Sequence[Point],
+                   train_costs: Sequence[np.ndarray], fold_points: Sequence[Point]
+                   ) -> list[Point]:
+    """Each fold's estimate for the jackknife: the minimum of a quadratic fitted to the
+    fold's training cost (``train_costs[i]``, one value per point) over the points nearest
+    the optimum in cost, else the fold's own best evaluated point (``fold_points[i]``).
+
+    Why: a fold's best evaluated point is one of the points the full fit searched, which
+    cluster around the full fit's optimum; with several coordinates a fold whose own
+    optimum lies between them picks one of the cluster and the jackknife spread shrinks
+    towards zero. The costs are smooth near the optimum, so a quadratic through the points
+    already evaluated (no new run) locates each fold's optimum between them."""
+    specs = hyp.specs
+    if not specs or len(points) < 3:
+        return list(fold_points)
+    u = _unit_offsets(hyp, best, points)
+    total = np.sum(train_costs, axis=0) if len(train_costs) else np.zeros(len(points))
+    free = np.flatnonzero(np.ptp(u, axis=0) > 0)
+    n_coef = (len(free) + 1) * (len(free) + 2) // 2
+    near = np.argsort(total)[:max(4 * n_coef, 30)]
+    x = u[np.ix_(near, free)]
+    scale = x.std(axis=0)
+    scale[scale == 0] = 1.0
+    out = []
+    for cost, fallback in zip(train_costs, fold_points, strict=True):
+        dx = _quadratic_min(x / scale, np.asarray(cost)[near]) if free.size else None
+        if dx is None:
+            out.append(fallback)
+            continue
+        pos = hyp.unit(best)
+        pos[free] += dx * scale
+        out.append(hyp.from_unit(pos))
     return out
 
 
@@ -631,9 +701,14 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     h = score_folds(costs, folds, points, event_rss)
     intervals: list[tuple[float, float]] = []
     if specs:
-        lofo = [pt for name, pt in h.fold_points.items() if not name.startswith("block")]
+        lofo = [(name, train) for name, train, _test in folds
+                if not name.startswith("block") and name in h.fold_points]
+        estimates = fold_estimates(
+            hyp, best, points,
+            [event_rss[:, [eids.index(e) for e in train]].sum(axis=1) for _n, train in lofo],
+            [h.fold_points[name] for name, _t in lofo])
         intervals = widest(profile_interval(hyp, points, point_rss, n),
-                           jackknife_interval(hyp, best, lofo))
+                           jackknife_interval(hyp, best, estimates))
     if not h.sq_lofo + h.sq_block:
         raise ValueError(f"{hyp.key}: no fold has both training and held-out events among "
                          f"{', '.join(eids)}")
