@@ -263,6 +263,17 @@ def profile_interval(hyp: Hypothesis, points: list[Point], rss: np.ndarray, n: i
     return out
 
 
+def _is_block(fold_name: str) -> bool:
+    """The high-flow block fold (the others leave one flow out)."""
+    return fold_name.startswith("block")
+
+
+def _events_cost(event_rss: np.ndarray, eids: Sequence[str], events: Sequence[str]
+                 ) -> np.ndarray:
+    """Per point, the summed cost of ``events`` (columns of ``event_rss`` in ``eids``)."""
+    return event_rss[:, [eids.index(e) for e in events]].sum(axis=1)
+
+
 def jackknife_interval(hyp: Hypothesis, best: Point, fold_points: Sequence[Point]
                        ) -> list[tuple[float, float]]:
     """95 % delete-one-flow jackknife interval per coordinate around ``best``.
@@ -284,12 +295,11 @@ def jackknife_interval(hyp: Hypothesis, best: Point, fold_points: Sequence[Point
     if m < 3 or not specs:
         return [(float(v), float(v)) for v in best]
     t = float(stats.t.ppf(0.975, m - 1))
+    offsets = _unit_offsets(hyp, best, fold_points)
     out = []
     for j, p in enumerate(specs):
-        d = np.array([hyp.unit(fp)[j] - u0[j] for fp in fold_points])
+        d = offsets[:, j]
         periodic = isinstance(p, NuisanceSpec) and p.periodic
-        if periodic:
-            d = (d + 0.5) % 1.0 - 0.5
         se = math.sqrt((m - 1) / m * float(np.sum((d - d.mean()) ** 2)))
         half = t * se
         if periodic:
@@ -571,14 +581,14 @@ def score_folds(costs: HypothesisCosts, folds: Sequence[Fold], points: list[Poin
     names = [p.name for p in hyp.specs]
     out = _Heldout()
     for name, train, test in folds:
-        tc = event_rss[:, [eids.index(e) for e in train]].sum(axis=1)
+        tc = _events_cost(event_rss, eids, train)
         pt = _fold_point(hyp, points, tc) if hyp.specs else ()
         if hyp.specs:
             out.fold_values[name] = dict(zip(names, pt, strict=True))
             out.fold_points[name] = pt
         res = costs.evaluate([pt], test)
         own = float(sum(np.sum(res[(pt, e)].z ** 2) for e in test))
-        test_rss = event_rss[:, [eids.index(e) for e in test]].sum(axis=1)
+        test_rss = _events_cost(event_rss, eids, test)
         cost, via = predictive_cost(tc, test_rss, own) if hyp.specs else (own, None)
         scale, uniform = 1.0, 0.0
         if via is not None:
@@ -592,7 +602,7 @@ def score_folds(costs: HypothesisCosts, folds: Sequence[Fold], points: list[Poin
                 scale = math.sqrt(cost / at)
             else:  # the point fits them exactly: its rise of the training cost is all
                 uniform = math.sqrt(cost / sum(res[(pt, e)].z.size or 1 for e in test))
-        block = name.startswith("block")
+        block = _is_block(name)
         for e in test:
             z = res[(pt, e)].z * scale + uniform
             (out.sq_block if block else out.sq_lofo).append(z ** 2)
@@ -702,10 +712,9 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     intervals: list[tuple[float, float]] = []
     if specs:
         lofo = [(name, train) for name, train, _test in folds
-                if not name.startswith("block") and name in h.fold_points]
+                if not _is_block(name) and name in h.fold_points]
         estimates = fold_estimates(
-            hyp, best, points,
-            [event_rss[:, [eids.index(e) for e in train]].sum(axis=1) for _n, train in lofo],
+            hyp, best, points, [_events_cost(event_rss, eids, train) for _n, train in lofo],
             [h.fold_points[name] for name, _t in lofo])
         intervals = widest(profile_interval(hyp, points, point_rss, n),
                            jackknife_interval(hyp, best, estimates))
