@@ -59,7 +59,7 @@ from vadsim.signals.fold_features import (
     noise_floor_g,
     recorded_fold_features,
 )
-from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, analog_chain, sensor_chain
+from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, FilteredSignal
 
 __all__ = [
     "FAILED_RESIDUAL",
@@ -197,15 +197,14 @@ def _phase_average(per_phase: list[dict[str, Feature]]
     return out, sd
 
 
-def _model_folded(campaign: Campaign, r: SimulationResult, full: Mapping[str, np.ndarray],
+def _model_folded(campaign: Campaign, r: SimulationResult,
+                  filtered: Mapping[str, FilteredSignal],
                   periods: Iterable[int] | None = None) -> dict[str, Feature]:
     """Folded and distribution features of one rate group's fine-grid signals, through each
-    sensor's analog chain (its low-pass and range), folded at the run's exact frequency
-    (every period, or ``periods``)."""
-    analog = {}
-    for name, a in full.items():
-        s = campaign.sensors[name]
-        analog[name], _ = analog_chain(r.t, a, lowpass_hz=s.lowpass_hz, range_g=s.range_g)
+    sensor's analog chain (its low-pass, done in ``filtered``, and range), folded at the run's
+    exact frequency (every period, or ``periods``)."""
+    analog = {name: f.analog(campaign.sensors[name].range_g)[0]
+              for name, f in filtered.items()}
     if periods is None:
         return model_fold_features(r.t, analog, r.f_exc_hz)
     return model_fold_features(r.t, analog, r.f_exc_hz, periods=periods)
@@ -271,15 +270,16 @@ def measure_event(
         if measurement is not None:
             full = {name: np.asarray(measurement(name, a, fine), dtype=float)
                     for name, a in full.items()}
+        # checked and low-passed once: every phase and the fold share it
+        filtered = {name: FilteredSignal(r.t, full[name], campaign.sensors[name].lowpass_hz)
+                    for name in names}
         per_phase: list[dict[str, Feature]] = []
         for k in range(phases):
             sampled, clipped = {}, {}
             for name in names:
                 s = campaign.sensors[name]
-                _, a_s, clip = sensor_chain(r.t, full[name], rate_hz=s.rate_hz,
-                                            range_g=s.range_g, lowpass_hz=s.lowpass_hz,
-                                            phase=k / phases,
-                                            noise_g=noise.get(name, 0.0), rng=rng)
+                _, a_s, clip = filtered[name].sample(s.rate_hz, s.range_g, k / phases,
+                                                     noise.get(name, 0.0), rng)
                 sampled[name], clipped[name] = a_s, clip
                 if keep_signals and k == 0:
                     kept[name] = a_s
@@ -288,7 +288,7 @@ def measure_event(
         sensor_feats.update(averaged)
         phase_sd.update(sd)
         if _use_folded(folded):
-            fx = _model_folded(campaign, r, full, fold_periods)
+            fx = _model_folded(campaign, r, filtered, fold_periods)
             sensor_feats.update(fx)
             phase_sd.update(dict.fromkeys(fx, 0.0))
         if full_features:
