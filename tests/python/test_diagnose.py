@@ -648,3 +648,32 @@ def test_a_pairs_fit_refines_both_candidates_jointly_after_its_joint_grid():
     assert stages[refined[0]].maxfev == PAIR_REFINE_PER_PARAM * 3 >= 48
     single = _candidate_stages(hyp, 1000.0, probed=True)
     assert not [st for st in single if st.grid is None and st.refine == physics]
+
+
+def test_values_at_the_edge_of_their_range_are_flagged_and_the_verdict_says_so():
+    """A value the search clipped to an end of its range is a bound, not an estimate (the
+    field tables' impact-face stiffness x0.25): the fit lists it, the verdict's sentence
+    says so; a periodic constant (theta0) has no edge, and a candidate at its vanishing
+    value is not "at a bound" but absent."""
+    from vadsim.fit.diagnose import edges_text
+    from vadsim.fit.nuisance import DEFAULT_NUISANCE
+
+    def fit(keys, point):
+        return HypothesisFit(keys=keys, nuisance_specs=DEFAULT_NUISANCE, point=point,
+                             k=len(point), intervals=[], rss=1.0, n=10, heldout_rms=1.0,
+                             heldout_rms_lofo=1.0, heldout_rms_block=1.0, score=0.0)
+
+    stiff = CANDIDATES["contact_stiffness[impact]"].params[0]
+    edge = fit(("contact_stiffness[impact]",), (stiff.lo, 0.85, 0.0))
+    assert edge.at_bounds == [
+        {"of": "contact_stiffness", "param": stiff.name, "value": stiff.lo, "bound": "lower"},
+        {"of": "nuisance", "param": "wob_scale", "value": 0.85, "bound": "lower"}]
+    text = edges_text(edge)
+    assert f"contact_stiffness {stiff.name} = {stiff.lo:g} (lower bound)" in text
+    assert "wob_scale" not in text  # the nuisance edge goes in the nuisance table
+    inside = fit(("contact_stiffness[impact]",), (0.9 * stiff.hi, 1.15 - 1e-3, 3.1))
+    assert inside.at_bounds == [] and edges_text(inside) == ""
+    force = CANDIDATES["anvil_friction"].params[0]
+    assert force.null == force.lo  # the friction force vanishes at its lower end
+    assert fit(("anvil_friction",), (force.lo, 1.0, 1.0)).at_bounds == []
+    assert fit(("anvil_friction",), (force.hi, 1.0, 1.0)).at_bounds[0]["bound"] == "upper"

@@ -77,8 +77,8 @@ from vadsim.model.presets import Preset
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
 
-__all__ = ["CandidateFit", "Diagnosis", "diagnose", "fmt_value", "make_folds", "none_model",
-           "predict"]
+__all__ = ["CandidateFit", "Diagnosis", "diagnose", "edges_text", "fmt_value", "make_folds",
+           "none_model", "predict"]
 
 CandidateFit = HypothesisFit
 """vadsim 0.1's name of a fitted candidate: now any fitted hypothesis."""
@@ -251,6 +251,7 @@ class Diagnosis:
             "missing_physics": self.missing_physics,
             "missing_physics_keys": list(self.chosen.keys) if self.chosen else ["none"],
             "parameters": final.parameters,
+            "at_bounds": final.at_bounds,
             "intervals": {i: {k: list(v) for k, v in d.items()} for i, d in cand_iv.items()},
             "nuisance": {k: {"value": v, "interval": list(nuis_iv.get(k, (v, v)))}
                          for k, v in nuisance.items()},
@@ -345,6 +346,8 @@ class Diagnosis:
         what = (f"{' + '.join(self.chosen.ids)} ({_params_text(self.chosen)}); held-out RMS "
                 f"{b:.2f} -> {f:.2f}" if self.chosen else
                 "no candidate" + (" nor pair" if self.pairs else "") + " passes the thresholds")
+        if self.chosen:
+            what += edges_text(self.chosen)
         if self.verdict == "explained":
             return f"missing physics: {what}"
         where = "; ".join(f"{u['flow_gpm']:g} gal/min ({', '.join(u['worst'])})"
@@ -365,6 +368,19 @@ def none_model(calibrated: HypothesisFit, nominal: HypothesisFit) -> HypothesisF
     the constants more luckily "explained" it. An effect has to beat the better of the two.
     """
     return nominal if nominal.score < calibrated.score else calibrated
+
+
+def edges_text(fit: HypothesisFit) -> str:
+    """The verdict's caveat for candidate parameters ``fit`` left at an end of their search
+    range (:attr:`~vadsim.fit.hypothesis.HypothesisFit.at_bounds`), or ``""``."""
+    edges = [e for e in fit.at_bounds if e["of"] != "nuisance"]
+    if not edges:
+        return ""
+    return ("; at the edge of its search range: "
+            + ", ".join(f"{e['of']} {e['param']} = {fmt_value(e['value'])} ({e['bound']} bound)"
+                        for e in edges)
+            + " -- a bound, not an estimate: read the effect as a proxy for what moves the "
+              "features")
 
 
 def _params_text(fit: HypothesisFit) -> str:

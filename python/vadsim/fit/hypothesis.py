@@ -41,7 +41,7 @@ from vadsim.fit.candidates import CANDIDATES, Candidate, ParamSpec
 from vadsim.fit.nuisance import NuisanceSpec
 from vadsim.model.change import ModelChange
 
-__all__ = ["Fold", "Hypothesis", "HypothesisCosts", "HypothesisFit", "Point", "aicc",
+__all__ = ["AT_BOUND", "Fold", "Hypothesis", "HypothesisCosts", "HypothesisFit", "Point", "aicc",
            "fit_hypothesis", "fold_estimates", "jackknife_interval", "predictive_cost", "widest"]
 
 Point = tuple[float, ...]
@@ -53,6 +53,11 @@ TOP_POINTS = 3
 COARSE_SEEDS = 3
 """How many of a coarse grid's best points are evaluated again at full fidelity."""
 
+
+AT_BOUND = 1e-4
+"""How close to an end of its search range, as a fraction of the range (of its log for a
+log-scaled parameter), a fitted value counts as at that end: points carry 6 significant
+digits, so a value the search clipped to a bound sits exactly on it."""
 
 @dataclass(frozen=True)
 class Hypothesis:
@@ -510,6 +515,29 @@ class HypothesisFit:
         cands, nuis = self.hypothesis.split(tuple(self.intervals))  # type: ignore[arg-type]
         return ({CANDIDATES[k].id: v for k, v in cands.items()},  # type: ignore[misc]
                 nuis)  # type: ignore[return-value]
+
+    @property
+    def at_bounds(self) -> list[dict[str, Any]]:
+        """Fitted values left at an end of their search range (not a periodic constant's,
+        nor a candidate's vanishing value): each as ``{"of": candidate id or "nuisance",
+        "param", "value", "bound": "lower" | "upper"}``.
+
+        Why: a value at the edge is a bound, not an estimate -- the recordings ask for more
+        than the range allows (the 7in CDE field table's impact-face stiffness x0.25, the
+        9.5in PDC's too; docs/DIAGNOSIS.md), so the physics named is at best a proxy for
+        what moves the features, and a user must be told rather than read it off."""
+        out: list[dict[str, Any]] = []
+        owners = [CANDIDATES[k].id for k in self.keys for _ in CANDIDATES[k].params]
+        owners += ["nuisance"] * len(self.nuisance_specs)
+        for spec, value, of in zip(self.hypothesis.specs, self.point, owners, strict=True):
+            if getattr(spec, "periodic", False) or (spec.null is not None
+                                                    and float(value) == float(spec.null)):
+                continue
+            u = spec.to_unit(float(value))
+            if u <= AT_BOUND or u >= 1.0 - AT_BOUND:
+                out.append({"of": of, "param": spec.name, "value": float(value),
+                            "bound": "lower" if u <= AT_BOUND else "upper"})
+        return out
 
     @property
     def parameters(self) -> dict[str, dict[str, Any]]:

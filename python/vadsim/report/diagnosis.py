@@ -19,6 +19,7 @@ import pandas as pd
 
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnose import Diagnosis, fmt_value
+from vadsim.fit.hypothesis import HypothesisFit
 from vadsim.plots.campaigns import heldout_features, mismatch_base
 from vadsim.report.render import check_format, render, write
 
@@ -85,11 +86,18 @@ def _nuisance(diag: Diagnosis) -> pd.DataFrame | None:
         rows.append({"constant": name, "nominal": fmt_value(spec.null),
                      "range": f"{fmt_value(spec.lo)} to {fmt_value(spec.hi)} {spec.unit}",
                      "none (calibrated)": f"{fmt_value(base.nuisance[name])} "
-                                          f"{_iv(base_iv.get(name))}",
+                                          f"{_iv(base_iv.get(name))}{_edge(base, name)}",
                      "final model": (f"{fmt_value(final.nuisance[name])} "
-                                     f"{_iv(final_iv.get(name))}" if name in final.nuisance
+                                     f"{_iv(final_iv.get(name))}{_edge(final, name)}"
+                                     if name in final.nuisance
                                      else f"{fmt_value(spec.null)} (nominal)")})
     return pd.DataFrame(rows).set_index("constant")
+
+
+def _edge(fit: HypothesisFit, param: str, of: str = "nuisance") -> str:
+    """`` (at the lower bound)`` where ``fit`` left ``param`` at an end of its range."""
+    return "".join(f" (at the {e['bound']} bound)" for e in fit.at_bounds
+                   if e["of"] == of and e["param"] == param)
 
 
 def _iv(iv: tuple[float, float] | None) -> str:
@@ -108,6 +116,7 @@ def _verdict(diag: Diagnosis) -> dict[str, Any]:
             params = [f"{p.name} = {fmt_value(vals[p.name])} {p.unit} (95 % interval "
                       f"{fmt_value(ivs.get(p.name, (math.nan,))[0])} to "
                       f"{fmt_value(ivs.get(p.name, (math.nan, math.nan))[1])})"
+                      f"{_edge(c, p.name, cand.id)}"
                       for p in cand.params]
             params += [f"{k} = {v}" for k, v in cand.fixed.items()]
             effects.append({"id": cand.id, "key": key, "signature": cand.signature,
