@@ -677,3 +677,47 @@ def test_values_at_the_edge_of_their_range_are_flagged_and_the_verdict_says_so()
     assert force.null == force.lo  # the friction force vanishes at its lower end
     assert fit(("anvil_friction",), (force.lo, 1.0, 1.0)).at_bounds == []
     assert fit(("anvil_friction",), (force.hi, 1.0, 1.0)).at_bounds[0]["bound"] == "upper"
+
+
+def test_the_progress_bar_says_what_the_diagnosis_does(hydraulic_campaign, monkeypatch):
+    """How many fits a diagnosis makes depends on what it finds (a screen of every pair can
+    add hundreds and run for an hour), so its bar has no total and no ETA to mislead; its
+    status says what it is doing, and the pair screen counts its pairs."""
+    import vadsim.fit.diagnose as diagnose_module
+    from vadsim.fit.diagnose import screen_pairs
+
+    statuses: list[str] = []
+    totals: list[object] = []
+    updates = [0]
+
+    class Bar:  # what diagnose needs of a tqdm bar
+        def update(self, n: int = 1) -> None:
+            updates[0] += n
+
+        def set_postfix_str(self, text: str) -> None:
+            statuses.append(text)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return None
+
+    def fake_bar(progress, total, desc, unit="run"):
+        totals.append(total)
+        return Bar()
+
+    monkeypatch.setattr(diagnose_module, "bar", fake_bar)
+    keys = ["string_radiation", "rock_stiffness"]  # neither explains a hydraulic force
+    d = diagnose(hydraulic_campaign, candidates=keys, cycles=SMALL["cycles"],
+                 analyse_cycles=SMALL["analyse_cycles"], phases=2, progress=True)
+    assert d.verdict == "unexplained", d.summary()
+    assert totals == [None]
+    n_pairs = len(screen_pairs(d.settings["candidates"]))
+    assert n_pairs == 1
+    screen = [s for s in statuses if s.startswith("pair screen: ") and "probed" in s]
+    assert screen == [f"pair screen: {i} of {n_pairs} pairs probed"
+                      for i in range(1, n_pairs + 1)]
+    assert any(s.startswith("step 1: fitting 2 candidate(s)") for s in statuses)
+    assert all(len(s) <= 82 for s in statuses)
+    assert updates[0] >= 2 + len(keys) + n_pairs  # calibration, each candidate, the pair

@@ -632,9 +632,33 @@ def _fit_task(ctx: _Context, job: _Job) -> HypothesisFit:
         return _run_job(ctx, ev, coarse_ev, job)
 
 
+Tick = Callable[..., None]
+"""One fit done, optionally with a status line for the progress bar (``tick("pair screen:
+57 of 143 pairs probed")``)."""
+
+
+def _bar_tick(b: Any) -> Tick:
+    """A :data:`Tick` on progress bar ``b``: one more fit, and the status if given."""
+    def tick(*status: str) -> None:
+        b.update(1)
+        if status:
+            b.set_postfix_str(status[0])
+    return tick
+
+
+def _on_bar(say: Callable[[str], None], b: Any) -> Callable[[str], None]:
+    """``say``, and each line as bar ``b``'s status: the bar has no total (how many fits a
+    diagnosis makes depends on what it finds: 25 on a one-effect campaign, several hundred
+    when it screens every pair), so the status says what it is doing."""
+    def both(line: str) -> None:
+        say(line)
+        b.set_postfix_str(line if len(line) <= 80 else line[:79] + "...")
+    return both
+
+
 def _fit_all(ctx: _Context, jobs: list[_Job], ev: CampaignEvaluator,
              coarse_ev: CampaignEvaluator, say: Callable[[str], None],
-             tick: Callable[[], None] = lambda: None) -> list[HypothesisFit]:
+             tick: Tick = lambda *_status: None) -> list[HypothesisFit]:
     """Fit every job: in worker processes when there are several workers."""
     if ev.workers <= 1 or len(jobs) <= 1:
         fits = []
@@ -712,7 +736,7 @@ class _Selection:
 
 def _screened(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
               current: HypothesisFit, pool: list[str],
-              top: int, say: Callable[[str], None], tick: Callable[[], None],
+              top: int, say: Callable[[str], None], tick: Tick,
               solo: Mapping[str, HypothesisFit],
               probes_out: list[HypothesisFit] | None = None) -> list[HypothesisFit]:
     """Every candidate on a coarse probe (a grid of at most ``PROBE_PER_AXIS`` points per
@@ -781,7 +805,7 @@ def _densify(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
 def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
                        base: HypothesisFit, none: HypothesisFit,
                        keys: list[str], opts: Mapping[str, Any], say: Callable[[str], None],
-                       tick: Callable[[], None]) -> _Selection:
+                       tick: Tick) -> _Selection:
     """Add candidates one at a time while the next one passes the thresholds. Candidates
     extend the calibrated ``base``; the first has to beat ``none`` (:func:`none_model`).
 
@@ -826,9 +850,11 @@ def _forward_selection(ctx: _Context, ev: CampaignEvaluator, coarse_ev: Campaign
                 pair_tried = True
                 fitted: set[frozenset[str]] = set()
                 for source in ("prospects", "screen"):
-                    pairs = (_pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried)
+                    pairs = (_pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried,
+                                        tick)
                              if source == "prospects" else
-                             _screen_pairs(ctx, ev, coarse_ev, base, keys, say, tried, fitted))
+                             _screen_pairs(ctx, ev, coarse_ev, base, keys, say, tried, fitted,
+                                           tick))
                     if not pairs:
                         continue
                     fitted |= {frozenset(f.keys) for f in pairs}
@@ -949,7 +975,8 @@ def _review(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
 def _pair_step(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
                base: HypothesisFit, probes: Sequence[HypothesisFit],
                opts: Mapping[str, Any], say: Callable[[str], None],
-               tried: list[dict[str, Any]] | None = None) -> list[HypothesisFit]:
+               tried: list[dict[str, Any]] | None = None,
+               tick: Tick = lambda *_status: None) -> list[HypothesisFit]:
     """Pairs of the first step's most promising candidates (:func:`pair_prospects`): a joint
     probe of each pair (a grid over both candidates' parameters at the nuisance values where
     they showed most, on the coarse engine), then full fits of the :data:`PAIR_FULL` best
@@ -969,7 +996,7 @@ def _pair_step(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluato
         jobs.append(_Job(hyp, start, (Stage(grid=tuple(range(hyp.n_physics)), refine=(),
                                             maxfev=0, max_per_axis=PROBE_PER_AXIS),),
                          probe=True))
-    joint = _fit_all(ctx, jobs, ev, coarse_ev, say)
+    joint = _fit_all(ctx, jobs, ev, coarse_ev, say, tick)
     single = min(f.rss for f in probes)
     promising = sorted((f for f in joint if f.rss <= (1.0 - PAIR_MIN_CUT) ** 2 * single),
                        key=lambda f: f.rss)
@@ -984,7 +1011,7 @@ def _pair_step(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluato
     full = _fit_all(ctx, [_Job(f.hypothesis, f.point,
                                tuple(_candidate_stages(f.hypothesis, base.rss, probed=True,
                                                      pair=True)))
-                          for f in promising[:PAIR_FULL]], ev, coarse_ev, say)
+                          for f in promising[:PAIR_FULL]], ev, coarse_ev, say, tick)
     return sorted(full, key=lambda f: (_any_vanishes(f), f.score))
 
 
@@ -1001,7 +1028,8 @@ def screen_pairs(keys: Sequence[str]) -> list[tuple[str, str]]:
 def _screen_pairs(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
                   base: HypothesisFit, keys: Sequence[str], say: Callable[[str], None],
                   tried: list[dict[str, Any]] | None = None,
-                  skip: Collection[frozenset[str]] = ()) -> list[HypothesisFit]:
+                  skip: Collection[frozenset[str]] = (),
+                  tick: Tick = lambda *_status: None) -> list[HypothesisFit]:
     """The last resort for two effects that cancel: a joint probe of every model-side pair
     (:func:`screen_pairs`, except the ``skip`` ones, fitted already) on the
     :data:`PAIR_SCREEN_EVENTS` events the calibrated base model fits worst, then full fits of
@@ -1040,7 +1068,14 @@ def _screen_pairs(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvalu
                          probe=True))
     sctx = replace(ctx, probe_eids=tuple(eids),
                    probe_folds=_restricted(ctx.folds, set(eids)))
-    probes = sorted(_fit_all(sctx, jobs, ev, coarse_ev, lambda _m: None), key=lambda f: f.rss)
+    done = [0]
+
+    def probed(*_status: str) -> None:  # the screen can take an hour: say how far it is
+        done[0] += 1
+        tick(f"pair screen: {done[0]} of {len(jobs)} pairs probed")
+
+    probes = sorted(_fit_all(sctx, jobs, ev, coarse_ev, lambda _m: None, probed),
+                    key=lambda f: f.rss)
     promising = [f for f in probes
                  if f.rss <= (1.0 - PAIR_SCREEN_MIN_GAIN) * base_cost][:PAIR_SCREEN_FULL]
     say("pair screen: " + ("; ".join(f"{f.key} probe RSS {f.rss:.1f}" for f in promising)
@@ -1055,7 +1090,7 @@ def _screen_pairs(ctx: _Context, ev: CampaignEvaluator, coarse_ev: CampaignEvalu
     full = _fit_all(ctx, [_Job(f.hypothesis, f.point,
                                tuple(_candidate_stages(f.hypothesis, base.rss, probed=True,
                                                      pair=True)))
-                          for f in promising], ev, coarse_ev, say)
+                          for f in promising], ev, coarse_ev, say, tick)
     return sorted(full, key=lambda f: (_any_vanishes(f), f.score))
 
 
@@ -1278,8 +1313,9 @@ def diagnose(
                 noise_rms=noise_rms)
     with CampaignEvaluator(camp, settings, phases=phases,
                            workers=workers or os.cpu_count() or 1, cache=cache_folder) as ev, \
-            bar(progress, len(keys) + 2, f"diagnose {camp.name}", "fit") as b, \
+            bar(progress, None, f"diagnose {camp.name}", "fit") as b, \
             contextlib.ExitStack() as stack:
+        say = _on_bar(say, b)
         plain = fit_hypothesis(ev, Hypothesis(), (), [], folds, eids, say)
         probe_eids, probe_folds = _probe_subset(camp, folds, PROBE_EVENTS)
         ctx = _Context(camp, settings, phases, tuple(folds), tuple(eids), ev.targets,
@@ -1291,7 +1327,8 @@ def diagnose(
         b.update(2)
         ctx, base_eval, located, located_events = _located(ctx, ev, hyp0, base, say)
         none = none_model(base, plain)
-        sel = _forward_selection(ctx, ev, coarse_ev, base, none, keys, opts, say, b.update)
+        sel = _forward_selection(ctx, ev, coarse_ev, base, none, keys, opts, say,
+                                 _bar_tick(b))
         chosen, reviewed = (_review(ctx, ev, coarse_ev, sel, keys, opts, say) if review
                             else (sel.chosen, []))
         final = chosen or none
