@@ -199,15 +199,20 @@ def _phase_average(per_phase: list[dict[str, Feature]]
 
 def _model_folded(campaign: Campaign, r: SimulationResult,
                   filtered: Mapping[str, FilteredSignal],
-                  periods: Iterable[int] | None = None) -> dict[str, Feature]:
+                  periods: Iterable[int] | None = None,
+                  noise_g: Mapping[str, float] | None = None) -> dict[str, Feature]:
     """Folded and distribution features of one rate group's fine-grid signals, through each
     sensor's analog chain (its low-pass, done in ``filtered``, and range), folded at the run's
-    exact frequency (every period, or ``periods``)."""
+    exact frequency (every period, or ``periods``); the quantiles with each sensor's
+    ``noise_g``, as a recording's hold it."""
     analog = {name: f.analog(campaign.sensors[name].range_g)[0]
               for name, f in filtered.items()}
+    noise = {name: float((noise_g or {}).get(name, 0.0)) for name in filtered}
+    rails = {name: campaign.sensors[name].range_g for name in filtered}
     if periods is None:
-        return model_fold_features(r.t, analog, r.f_exc_hz)
-    return model_fold_features(r.t, analog, r.f_exc_hz, periods=periods)
+        return model_fold_features(r.t, analog, r.f_exc_hz, noise_g=noise, range_g=rails)
+    return model_fold_features(r.t, analog, r.f_exc_hz, periods=periods, noise_g=noise,
+                               range_g=rails)
 
 
 def measure_event(
@@ -252,8 +257,9 @@ def measure_event(
     ``noise_g`` (one value, or one per sensor name) adds each sensor's Gaussian noise to the
     sampled series, drawn from ``seed``: a recording's window features (peaks, quantiles,
     impacts) carry its noise, e.g. a 200 ms peak of a 1 g-noise record is the peak of signal
-    plus noise (:func:`recorded_noise_g`). Folds are taken without it: a fold averages noise
-    out.
+    plus noise (:func:`recorded_noise_g`). Folds are taken without it (a fold averages noise
+    out), the quantiles of ``|a|`` with it (:func:`vadsim.signals.fold_features.
+    noisy_quantiles`).
     """
     if not (isinstance(phases, int) and phases >= 1):
         raise ValueError(f"phases = {phases!r} must be an integer >= 1")
@@ -288,7 +294,7 @@ def measure_event(
         sensor_feats.update(averaged)
         phase_sd.update(sd)
         if _use_folded(folded):
-            fx = _model_folded(campaign, r, filtered, fold_periods)
+            fx = _model_folded(campaign, r, filtered, fold_periods, noise)
             sensor_feats.update(fx)
             phase_sd.update(dict.fromkeys(fx, 0.0))
         if full_features:
