@@ -83,8 +83,9 @@ draws no waveform and the record gives distribution features as one that does no
 Features of a record that does not repeat
 -----------------------------------------
 ``<sensor>_q50_g``, ``_q90_g``, ``_q99_g``: quantiles (:data:`QUANTILES`) of ``|a|`` over the
-record. A simulation's are those of its fine-grid signal through the analog chain: the values
-a sensor sampling at a uniformly random phase would see.
+record. A simulation's are those of its fine-grid signal through the analog chain, with the
+recordings' noise added (:func:`noisy_quantiles`): the values a noisy sensor sampling at a
+uniformly random phase would see.
 
 Spreads and their floors
 ------------------------
