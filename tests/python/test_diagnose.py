@@ -329,11 +329,11 @@ def _selection_with(monkeypatch, step_fits, pair, screened=None):
     monkeypatch.setattr(dg, "_screened", lambda *a, **k: next(screens))
     monkeypatch.setattr(dg, "_densify", lambda ctx, ev, cev, fit, say: fit)
 
-    def pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried):
+    def pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried, tick):
         calls.append(base.key)
         return [pair] if pair is not None else []
 
-    def screen(ctx, ev, coarse_ev, base, keys, say, tried, skip):
+    def screen(ctx, ev, coarse_ev, base, keys, say, tried, skip, tick):
         calls.append("screen")
         assert all(frozenset(f.keys) not in skip for f in screened or [])
         return list(screened or [])
