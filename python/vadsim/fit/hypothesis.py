@@ -59,6 +59,7 @@ AT_BOUND = 1e-4
 log-scaled parameter), a fitted value counts as at that end: points carry 6 significant
 digits, so a value the search clipped to a bound sits exactly on it."""
 
+
 @dataclass(frozen=True)
 class Hypothesis:
     """Candidates (by key) and nuisance constants; a point is their parameters in order."""
