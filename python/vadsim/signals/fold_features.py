@@ -123,6 +123,7 @@ standardises the residual.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Iterable, Mapping
@@ -651,6 +652,16 @@ QUANTILE_NOISE_SEED = 20_480
 every run, so that a fit's cost does not jitter from one model change to the next."""
 
 
+@functools.lru_cache(maxsize=64)
+def _unit_noise(size: int, stream: int) -> np.ndarray:
+    """The fixed standard-normal draw :func:`noisy_quantiles` scales: drawn once per grid
+    length and sensor, not on every evaluation of a fit (the same numbers; read-only, as the
+    cache shares it)."""
+    out = np.random.default_rng([QUANTILE_NOISE_SEED, stream]).normal(0.0, 1.0, size=size)
+    out.flags.writeable = False
+    return out
+
+
 def noisy_quantiles(a: np.ndarray, noise_g: float, range_g: float | None = None,
                     stream: int = 0) -> np.ndarray:
     """The quantiles (:data:`QUANTILES`) of ``|a + noise|``, clipped at ``range_g``: what a
@@ -665,8 +676,7 @@ def noisy_quantiles(a: np.ndarray, noise_g: float, range_g: float | None = None,
     sampling rate."""
     x = np.asarray(a, dtype=float)
     if noise_g > 0.0:
-        rng = np.random.default_rng([QUANTILE_NOISE_SEED, stream])
-        x = x + rng.normal(0.0, noise_g, size=x.size)
+        x = x + noise_g * _unit_noise(x.size, stream)
         if range_g is not None:
             x = np.clip(x, -range_g, range_g)
     return np.asarray(np.percentile(np.abs(x), QUANTILES), dtype=float)
