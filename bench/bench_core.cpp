@@ -18,7 +18,7 @@
 int main(int argc, char** argv) {
   int runs = 21;
   double flow = 200, rtol = 1e-6, out_rate = 0, sum_rate = 20000, atol = 1e-8;
-  bool adams = true;
+  bool adams = true, accelerations_only = false;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--runs")) runs = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--flow")) flow = std::atof(argv[i + 1]);
@@ -27,10 +27,12 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--summary-rate")) sum_rate = std::atof(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--method")) adams = !std::strcmp(argv[i + 1], "adams");
     else if (!std::strcmp(argv[i], "--atol")) atol = std::atof(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--outputs"))
+      accelerations_only = !std::strcmp(argv[i + 1], "a");
     else {
       std::fprintf(stderr,
                    "usage: vadsim_bench [--runs N] [--flow GPM] [--rtol R] [--output-rate HZ] "
-                   "[--summary-rate HZ] [--method adams|bdf] [--atol M]\n");
+                   "[--summary-rate HZ] [--method adams|bdf] [--atol M] [--outputs all|a]\n");
       return 2;
     }
   }
@@ -43,6 +45,7 @@ int main(int argc, char** argv) {
   o.method = adams ? vadsim::Method::Adams : vadsim::Method::BDF;
   o.output_rate_hz = out_rate;
   o.record = out_rate > 0 ? vadsim::Record::Window : vadsim::Record::None;
+  o.accelerations_only = accelerations_only;
   o.summary_rate_hz = sum_rate;
   std::vector<double> ms;
   vadsim::RunResult r;
@@ -57,8 +60,9 @@ int main(int argc, char** argv) {
   Dl_info cvode_lib{};
   const bool found = dladdr(reinterpret_cast<void*>(&CVodeCreate), &cvode_lib) != 0;
   std::printf("CVODE from %s\n", found && cvode_lib.dli_fname ? cvode_lib.dli_fname : "?");
-  std::printf("7in CDE, %.0f gal/min, 400 cycles, rtol %.0e, output %.0f Hz, summary %.0f Hz\n",
-              flow, rtol, out_rate, sum_rate);
+  std::printf("7in CDE, %.0f gal/min, 400 cycles, rtol %.0e, output %.0f Hz (%s), summary "
+              "%.0f Hz\n",
+              flow, rtol, out_rate, accelerations_only ? "t, a" : "t, x, v, a, forces", sum_rate);
   if (ms.empty())
     std::printf("runs 0: the warm-up run alone, untimed (e.g. under callgrind)\n");
   else

@@ -158,6 +158,7 @@ void bind_run_options(py::module_& m) {
       .def_readwrite("max_step", &RunOptions::max_step)
       .def_readwrite("record", &RunOptions::record)
       .def_readwrite("output_rate_hz", &RunOptions::output_rate_hz)
+      .def_readwrite("accelerations_only", &RunOptions::accelerations_only)
       .def_readwrite("summary_rate_hz", &RunOptions::summary_rate_hz)
       .def_readwrite("peak_window_s", &RunOptions::peak_window_s)
       .def_readwrite("max_steps", &RunOptions::max_steps)

@@ -33,14 +33,19 @@ Horizon::Horizon(const Params& p, const RunOptions& opts)
 
 Recorder::Recorder(const Model& model, const RunOptions& opts, const Horizon& horizon,
                    RunResult& r)
-    : model_(model), xs_(model.static_positions()), flow_gpm_(opts.flow_gpm), r_(r) {
+    : model_(model),
+      xs_(model.static_positions()),
+      flow_gpm_(opts.flow_gpm),
+      r_(r),
+      states_(!opts.accelerations_only) {
   size_grids(opts, horizon);
+  const long n_states = states_ ? out_.size() : 0;
   r_.t.resize(out_.size());
-  r_.x.resize(out_.size(), kDof);
-  r_.v.resize(out_.size(), kDof);
+  r_.x.resize(n_states, kDof);
+  r_.v.resize(n_states, kDof);
   r_.a.resize(out_.size(), kDof);
-  r_.fc.resize(out_.size(), kSurfaces);
-  r_.fh.resize(out_.size());
+  r_.fc.resize(n_states, kSurfaces);
+  r_.fh.resize(n_states);
   r_.poincare_t.resize(sec_.size());
   r_.poincare.resize(sec_.size(), kState);
   auto& sm = r_.summary;
@@ -100,9 +105,10 @@ void Recorder::record_output(double tlim, const Trajectory& segment, const Modes
     const double t = out_.time(k);
     const auto y = sample(t, segment, modes);
     r_.t[k] = t;
+    r_.a.row(k) = ev_.acc.transpose();
+    if (!states_) continue;
     r_.x.row(k) = (xs_ + y.head<kDof>()).transpose();
     r_.v.row(k) = y.tail<kDof>().transpose();
-    r_.a.row(k) = ev_.acc.transpose();
     for (int s = 0; s < kSurfaces; ++s) r_.fc(k, s) = ev_.fc[s];
     r_.fh[k] = ev_.fh;
   }

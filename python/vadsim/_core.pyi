@@ -135,6 +135,7 @@ class RunOptions:
     max_step: float
     record: Record
     output_rate_hz: float
+    accelerations_only: bool
     summary_rate_hz: float
     peak_window_s: float
     max_steps: int

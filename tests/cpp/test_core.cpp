@@ -1528,6 +1528,36 @@ void test_dense_output() {
   }
 }
 
+void test_accelerations_only() {
+  // A run that stores accelerations only is the same run: the same steps, events and
+  // accelerations to the bit, with x, v and the forces left empty.
+  Params p;
+  const Model m(p);
+  RunOptions o;
+  o.flow_gpm = 400;
+  o.cycles = 40;
+  o.analyse_cycles = 20;
+  o.output_rate_hz = 20480;
+  o.summary_rate_hz = 0;
+  const RunResult all = simulate(m, o);
+  o.accelerations_only = true;
+  const RunResult a_only = simulate(m, o);
+  CHECK(all.t.size() > 1000, "the window holds only ", all.t.size(), " samples");
+  CHECK(a_only.t.size() == all.t.size(), "time grids differ: ", a_only.t.size(), " vs ",
+        all.t.size());
+  CHECK(a_only.a.rows() == all.a.rows(), "acceleration rows differ");
+  CHECK(a_only.t == all.t, "the time grid differs");
+  CHECK(a_only.a == all.a, "the accelerations differ");
+  CHECK(a_only.stats.steps == all.stats.steps, "steps differ: ", a_only.stats.steps, " vs ",
+        all.stats.steps);
+  CHECK(a_only.events.size() == all.events.size(), "events differ");
+  CHECK(a_only.x.rows() == 0 && a_only.v.rows() == 0 && a_only.fc.rows() == 0 &&
+            a_only.fh.size() == 0,
+        "x, v or the forces were stored");
+  CHECK(all.x.rows() == all.t.size(), "a full run lost its positions");
+  CHECK(a_only.y_end == all.y_end, "the final state differs");
+}
+
 int main(int argc, char** argv) {
   const std::map<std::string, std::function<void()>> tests = {
       {"energy_conservation", test_energy_conservation},
@@ -1543,6 +1573,7 @@ int main(int argc, char** argv) {
       {"interrupt", test_interrupt},
       {"unidentifiable_constants", test_unidentifiable_constants},
       {"dense_output", test_dense_output},
+      {"accelerations_only", test_accelerations_only},
   };
   if (argc != 2 || !tests.count(argv[1])) {
     std::fprintf(stderr, "usage: %s TEST\ntests:", argc > 0 ? argv[0] : "vadsim_tests");

@@ -801,3 +801,21 @@ def test_to_xarray_labels_itself() -> None:
         assert "units" in ds[name].attrs and "long_name" in ds[name].attrs, name
     assert ds.attrs["z_impact"] == r.z["impact"] and ds.attrs["j_pos"] == r.impulse_pos
     assert r.success is True and "steps" in r.message
+
+
+def test_a_run_that_stores_accelerations_only_is_the_same_run() -> None:
+    """``accelerations_only``: the same steps, events and accelerations to the bit; x, v and
+    the forces empty; the Dataset holds what was stored; a non-boolean is refused by name."""
+    kw = dict(cycles=20, analyse_cycles=10, output_rate_hz=20480.0, summary_rate_hz=0.0)
+    full = vadsim.simulate("7in-cde", 400, **kw)
+    slim = vadsim.simulate("7in-cde", 400, accelerations_only=True, **kw)
+    np.testing.assert_array_equal(slim.t, full.t)
+    np.testing.assert_array_equal(slim.a, full.a)
+    assert slim.stats == full.stats and slim.z == full.z
+    assert slim.x.shape == (0, 7) and slim.v.shape == (0, 7)
+    assert slim.contact_forces.shape[0] == 0 and slim.excitation_force.size == 0
+    assert slim.accelerations_only and not full.accelerations_only
+    ds = slim.to_xarray()
+    assert set(ds.data_vars) == {"a", "accel_g"} and ds.sizes["time"] == full.t.size
+    with pytest.raises(ValueError, match="accelerations_only"):
+        vadsim.simulate("7in-cde", 400, accelerations_only="yes", **kw)

@@ -66,6 +66,7 @@ class Recorder {
   TimeGrid out_, sum_, sec_;
   double per_window_ = 1;  ///< summary samples per peak window
   long n_windows_ = 0;
+  bool states_ = true;  ///< the stored series keep x, v and the forces, not only a
   Evaluation ev_;  ///< workspace: forces and accelerations at the sampled state
 };
 

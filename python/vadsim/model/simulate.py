@@ -153,6 +153,11 @@ class SimulationResult:
     _core_result: Any = field(default=None, repr=False)
 
     @property
+    def accelerations_only(self) -> bool:
+        """Whether the run stored only ``t`` and ``a`` (``x``, ``v`` and the forces empty)."""
+        return self.t.size > 0 and self.x.shape[0] == 0
+
+    @property
     def period_s(self) -> float:
         """Excitation period (s)."""
         return 1.0 / self.f_exc_hz
@@ -225,30 +230,33 @@ class SimulationResult:
     def to_xarray(self) -> Any:
         """The recorded time series as an :class:`xarray.Dataset` with CF ``units`` and
         ``long_name`` attributes: dimensions ``time`` and ``dof`` (bit ... mwd) and
-        ``surface`` for the contact forces; the labels of the run as attributes."""
+        ``surface`` for the contact forces; the labels of the run as attributes. A run
+        that stored accelerations only (``accelerations_only``) gives ``a`` and ``accel_g``."""
         import xarray as xr
 
         dims = ("time", "dof")
-        ds = xr.Dataset(
-            {
-                "x": (dims, self.x, {"units": "m", "long_name": "absolute position"}),
-                "v": (dims, self.v, {"units": "m/s", "long_name": "velocity"}),
-                "a": (dims, self.a, {"units": "m/s^2", "long_name": "acceleration"}),
-                "accel_g": (dims, self.accel_g, {"units": "g", "long_name": "acceleration"}),
-                "contact_force": (("time", "surface"), self.contact_forces,
-                                  {"units": "N/kg", "long_name": "contact force per unit "
-                                   "reference mass"}),
-                "excitation_force": ("time", self.excitation_force,
-                                     {"units": "N/kg", "long_name": "flow-driven excitation "
-                                      "force per unit reference mass"}),
-            },
-            coords={
-                "time": ("time", self.t, {"units": "s", "long_name": "time"}),
-                "dof": ("dof", list(DOF_NAMES), {"units": "", "long_name": "lumped mass"}),
-                "surface": ("surface", list(SURFACES[:self.contact_forces.shape[1]]),
-                            {"units": "", "long_name": "contact surface"}),
-            },
-        )
+        variables = {
+            "x": (dims, self.x, {"units": "m", "long_name": "absolute position"}),
+            "v": (dims, self.v, {"units": "m/s", "long_name": "velocity"}),
+            "a": (dims, self.a, {"units": "m/s^2", "long_name": "acceleration"}),
+            "accel_g": (dims, self.accel_g, {"units": "g", "long_name": "acceleration"}),
+            "contact_force": (("time", "surface"), self.contact_forces,
+                              {"units": "N/kg", "long_name": "contact force per unit "
+                               "reference mass"}),
+            "excitation_force": ("time", self.excitation_force,
+                                 {"units": "N/kg", "long_name": "flow-driven excitation "
+                                  "force per unit reference mass"}),
+        }
+        coords = {
+            "time": ("time", self.t, {"units": "s", "long_name": "time"}),
+            "dof": ("dof", list(DOF_NAMES), {"units": "", "long_name": "lumped mass"}),
+            "surface": ("surface", list(SURFACES[:self.contact_forces.shape[1]]),
+                        {"units": "", "long_name": "contact surface"}),
+        }
+        if self.accelerations_only:
+            variables = {k: variables[k] for k in ("a", "accel_g")}
+            del coords["surface"]
+        ds = xr.Dataset(variables, coords=coords)
         ds.attrs.update(
             preset=self.preset or "", flow_gpm=self.flow_gpm, f_exc_hz=self.f_exc_hz,
             cycles=self.cycles, analyse_cycles=self.analyse_cycles, scenario=self.scenario,
@@ -302,6 +310,7 @@ def simulate(
     initial_state: Sequence[float] | np.ndarray | SimulationResult | None = None,
     max_steps: int | None = None,
     max_events: int | None = None,
+    accelerations_only: bool = False,
 ) -> SimulationResult:
     """Run the model at one flow rate: static on-bottom state, flow on at t = 0.
 
@@ -337,6 +346,10 @@ def simulate(
     initial_state
         Absolute ``[x1..x7, v1..v7]`` or a previous result (its final state), instead of the
         static equilibrium: continuation along a flow sweep.
+    accelerations_only
+        Store only ``t`` and ``a`` (``x``, ``v`` and the forces are empty, 0 rows): what a
+        sensor measures. About a tenth faster for a run measured through its sensors at a
+        20 kHz output rate (the diagnosis' runs), and a quarter of the memory.
     max_steps, max_events
         Budgets that turn a pathological input into a :class:`SolverError` instead of a hang.
         ``None`` (default): budgets that grow with the run, 20000 steps per cycle (at least
@@ -394,6 +407,8 @@ def simulate(
         raise ValueError(f"method = {method!r} must be 'adams' or 'bdf'")
     if not isinstance(record, str) or record not in _RECORDS:
         raise ValueError(f"record = {record!r} must be 'window', 'all' or 'none'")
+    if not isinstance(accelerations_only, (bool, np.bool_)):
+        raise ValueError(f"accelerations_only = {accelerations_only!r} must be True or False")
     budgets = {}
     for name, value in (("max_steps", max_steps), ("max_events", max_events)):
         budgets[name] = _budget(name, value)
@@ -403,6 +418,7 @@ def simulate(
                         output_rate_hz=output_rate_hz, summary_rate_hz=summary_rate_hz,
                         max_steps=budgets["max_steps"], max_events=budgets["max_events"],
                         initial_state=initial_state)
+    opts.accelerations_only = bool(accelerations_only)
     opts.validate(params)  # what depends on the model (the flow range, checked above)
     r = _core.simulate(core_model, opts)
     return _result(r, params, preset, flow, cycles, analyse_cycles)
