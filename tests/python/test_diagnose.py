@@ -721,3 +721,49 @@ def test_the_progress_bar_says_what_the_diagnosis_does(hydraulic_campaign, monke
     assert any(s.startswith("step 1: fitting 2 candidate(s)") for s in statuses)
     assert all(len(s) <= 82 for s in statuses)
     assert updates[0] >= 2 + len(keys) + n_pairs  # calibration, each candidate, the pair
+
+
+def test_a_probe_that_gains_only_by_its_anchor_earns_no_full_fit(monkeypatch):
+    """A screen's probes are laid at two anchors (the current and the nominal nuisance
+    values). Where the current model itself costs less at the nominal ones, every probe
+    beats its start there, whatever its candidate: only a probe that beats the current
+    model's own best cost (its candidate at the null, either anchor) earns a full fit."""
+    import vadsim.fit.diagnose as dg
+    from vadsim.fit.nuisance import DEFAULT_NUISANCE
+
+    current = HypothesisFit(
+        keys=("hydraulic_force[anvil]",), nuisance_specs=DEFAULT_NUISANCE,
+        point=(64.0, 2.0, 1.05, 2.0), k=4, intervals=[], rss=100.0, n=10, heldout_rms=1.7,
+        heldout_rms_lofo=1.7, heldout_rms_block=1.7, score=0.0)
+    pool = ["anvil_friction", "string_radiation", "rock_stiffness"]
+
+    def probe(key: str, gain_at: float) -> HypothesisFit:
+        hyp = current.hypothesis.extend(key)
+        start = hyp.round([64.0, 2.0, 0.0, 1.05, 2.0])
+        nominal_null = hyp.round([64.0, 2.0, 0.0, 1.0, 2.0])
+        moved = hyp.round([64.0, 2.0, 0.5 * hyp.specs[2].hi, 1.0, 2.0])
+        costs = {start: 100.0, nominal_null: 50.0, moved: gain_at}
+        return HypothesisFit(keys=hyp.keys, nuisance_specs=DEFAULT_NUISANCE, point=moved,
+                             k=5, intervals=[], rss=min(costs.values()), n=4,
+                             heldout_rms=0.2, heldout_rms_lofo=0.2, heldout_rms_block=0.2,
+                             score=0.0, rss_start=100.0, point_rss=costs, probe=True)
+
+    # friction and radiation gain nothing on the current model at the nominal anchor (49
+    # and 50 against 50; on the old rule both passed, 49 and 50 against a start of 100);
+    # rock stiffness gains 40 %
+    probes = [probe("anvil_friction", 49.0), probe("string_radiation", 50.0),
+              probe("rock_stiffness", 30.0)]
+    assert dg._current_cost(probes) == 50.0
+    calls: list[list[str]] = []
+
+    def fit_all(ctx, jobs, ev, coarse_ev, say, tick=lambda *_s: None):
+        if all(j.probe for j in jobs):
+            return probes
+        calls.append([j.hyp.keys[-1] for j in jobs])
+        return [probes[pool.index(j.hyp.keys[-1])] for j in jobs]
+
+    monkeypatch.setattr(dg, "_fit_all", fit_all)
+    dg._screened(None, None, None, current, pool, 4, lambda _m: None, lambda *_s: None, {})
+    assert calls == [["rock_stiffness"]]
+    # without any probe at a null the start stays the reference (a resonance alone)
+    assert dg._current_cost([]) == math.inf
