@@ -163,7 +163,7 @@ def run_event(campaign: Campaign, event: Event, settings: RunSettings) -> Simula
     A recording is steady drilling: a run whose window still drifts is continued
     (:func:`vadsim.model.steady.steady_run`). Without the core's 20 kHz summary: every feature
     is measured from the stored series, and the summary cost 15 % of such a run. Only the
-    accelerations are stored (a sensor measures nothing else): another tenth of the run."""
+    accelerations are stored (a sensor measures nothing else): a third of the memory."""
     return steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="window",
                       output_rate_hz=fine_rate_hz(campaign), summary_rate_hz=0.0,
                       accelerations_only=True)
