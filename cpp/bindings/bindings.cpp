@@ -47,6 +47,7 @@ void bind_errors_and_enums(py::module_& m) {
       .value("None_", Record::None)
       .value("Window", Record::Window)
       .value("All", Record::All);
+  py::enum_<Steady>(m, "Steady").value("Full", Steady::Full).value("Auto", Steady::Auto);
 }
 
 /// @brief Params with one property per parameter of param_table(), pickling and the name table.
@@ -164,6 +165,16 @@ void bind_run_options(py::module_& m) {
       .def_readwrite("max_steps", &RunOptions::max_steps)
       .def_readwrite("max_events", &RunOptions::max_events)
       .def_readwrite("initial_state", &RunOptions::initial_state)
+      .def_readwrite("initial_displacement", &RunOptions::initial_displacement)
+      .def_readwrite("steady", &RunOptions::steady)
+      .def_readwrite("steady_max_period", &RunOptions::steady_max_period)
+      .def_readwrite("steady_min_cycles", &RunOptions::steady_min_cycles)
+      .def_readwrite("steady_confirm_cycles", &RunOptions::steady_confirm_cycles)
+      .def_readwrite("steady_drift_cycles", &RunOptions::steady_drift_cycles)
+      .def_readwrite("steady_tol", &RunOptions::steady_tol)
+      .def_readwrite("orbit_rate_hz", &RunOptions::orbit_rate_hz)
+      .def_readwrite("orbit_replaces_window", &RunOptions::orbit_replaces_window)
+      .def("steady_tolerance", &RunOptions::steady_tolerance)
       .def("step_budget", &RunOptions::step_budget)
       .def("event_budget", &RunOptions::event_budget)
       .def("validate", py::overload_cast<>(&RunOptions::validate, py::const_))
@@ -194,6 +205,15 @@ void bind_results(py::module_& m) {
       .def_readonly("impulse_pos", &WindowSummary::impulse_pos)
       .def_readonly("window_peaks", &WindowSummary::window_peaks);
 
+  py::class_<SteadyInfo>(m, "SteadyInfo")
+      .def_readonly("enabled", &SteadyInfo::enabled)
+      .def_readonly("period", &SteadyInfo::period)
+      .def_readonly("detected_cycle", &SteadyInfo::detected_cycle)
+      .def_readonly("stopped_cycle", &SteadyInfo::stopped_cycle)
+      .def_readonly("residual", &SteadyInfo::residual)
+      .def_readonly("tolerance", &SteadyInfo::tolerance)
+      .def_readonly("window_on_orbit", &SteadyInfo::window_on_orbit);
+
   py::class_<RunResult>(m, "RunResult")
       .def_readonly("flow_gpm", &RunResult::flow_gpm)
       .def_readonly("f_exc_hz", &RunResult::f_exc_hz)
@@ -209,6 +229,11 @@ void bind_results(py::module_& m) {
       .def_readonly("summary", &RunResult::summary)
       .def_readonly("stats", &RunResult::stats)
       .def_readonly("y_end", &RunResult::y_end)
+      .def_readonly("x_static", &RunResult::x_static)
+      .def_readonly("steady", &RunResult::steady)
+      .def_readonly("orbit_t", &RunResult::orbit_t)
+      .def_readonly("orbit_a", &RunResult::orbit_a)
+      .def_readonly("orbit_period_s", &RunResult::orbit_period_s)
       .def_property_readonly("event_t",
                              [](const RunResult& r) {
                                return event_column<double>(

@@ -160,20 +160,35 @@ void CvodeSolver::interpolate(double t, N_Vector out) const {
                         (std::abs(nd.tn) + std::abs(nd.hu)) * (nd.hu < 0 ? -1.0 : 1.0);
     const double tp = nd.tn - nd.hu - fuzz, tn1 = nd.tn + fuzz;
     if (!((t - tp) * (t - tn1) > 0)) {
-      const double s = (t - nd.tn) / nd.h;
-      double c[Nordsieck::kMaxColumns];
-      const double* x[Nordsieck::kMaxColumns];
-      int n = 0;
-      for (int j = nd.q; j >= 0; --j, ++n) {
-        c[n] = 1.0;
-        for (int i = 0; i < j; ++i) c[n] *= s;
-        x[n] = nd.zn[j];
-      }
-      linear_combination(n, c, x, NV_DATA_S(out));
+      evaluate_interpolant(t, nd.tn, nd.h, nd.q, nd.zn, NV_DATA_S(out));
       return;
     }
   }
   check(CVodeGetDky(h_.mem, t, 0, out), "CVodeGetDky", t);
+}
+
+void CvodeSolver::evaluate_interpolant(double t, double tn, double h, int q,
+                                      const double* const* zn, double* out) {
+  const double s = (t - tn) / h;
+  double c[kMaxColumns];
+  const double* x[kMaxColumns];
+  int n = 0;
+  for (int j = q; j >= 0; --j, ++n) {
+    c[n] = 1.0;
+    for (int i = 0; i < j; ++i) c[n] *= s;
+    x[n] = zn[j];
+  }
+  linear_combination(n, c, x, out);
+}
+
+bool CvodeSolver::last_interpolant(StepInterpolant& out) const {
+  Nordsieck& nd = nordsieck_;
+  if (!own_dense_output_ || !(nd.current || load_nordsieck())) return false;
+  out.tn = nd.tn;
+  out.h = nd.h;
+  out.q = nd.q;
+  for (int j = 0; j <= nd.q; ++j) out.zn[j] = nd.zn[j];
+  return true;
 }
 
 void CvodeSolver::interpolate_with_cvode(double t, N_Vector out) const {

@@ -2,12 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
+#include <vector>
 #include <sstream>
 #include <string>
 
 #include "vadsim/contact_tracker.hpp"
 #include "vadsim/cvode_solver.hpp"
 #include "vadsim/recorder.hpp"
+#include "vadsim/steady_state.hpp"
 
 namespace vadsim {
 
@@ -71,18 +75,23 @@ class Segment final : public Trajectory {
 /// std::invalid_argument for one beyond a kilometre or 1000 m/s (the tool's length bound).
 State initial_displacements(const Model& model, const RunOptions& opts) {
   State y0 = State::Zero();
+  const char* name = "initial_state";
   if (opts.initial_state) {
     y0 = *opts.initial_state;
     y0.head<kDof>() -= model.static_positions();
-    for (int i = 0; i < kState; ++i) {
-      if (!(std::abs(y0[i]) <= 1e3)) {
-        std::ostringstream os;
-        os << "option initial_state[" << i << "] = " << (*opts.initial_state)[i]
-           << (i < kDof ? " m is " : " m/s is ") << y0[i]
-           << (i < kDof ? " m from the static state: must be within 1000 m"
-                        : " m/s: must be within 1000 m/s");
-        throw std::invalid_argument(os.str());
-      }
+  } else if (opts.initial_displacement) {
+    y0 = *opts.initial_displacement;
+    name = "initial_displacement";
+  }
+  for (int i = 0; i < kState; ++i) {
+    if (!(std::abs(y0[i]) <= 1e3)) {
+      const State& given = opts.initial_state ? *opts.initial_state : *opts.initial_displacement;
+      std::ostringstream os;
+      os << "option " << name << "[" << i << "] = " << given[i]
+         << (i < kDof ? " m is " : " m/s is ") << y0[i]
+         << (i < kDof ? " m from the static state: must be within 1000 m"
+                      : " m/s: must be within 1000 m/s");
+      throw std::invalid_argument(os.str());
     }
   }
   return y0;
@@ -120,8 +129,19 @@ class EventLoop {
   void check_progress(double tret);
   /// @brief Start a new smooth segment at (t, y).
   void restart(double t, const State& y);
+  /// @brief Record every grid point up to tlim from the current segment, then let the
+  /// steady-state engine see what was recorded.
+  void record_until(double tlim);
+  /// @brief New Poincare sections: look for a period, start or close an orbit's capture; keep
+  /// the piece (t_lo, tlim] of the current step while capturing.
+  void watch_steady_state(double t_lo, double tlim);
+  /// @brief Whether the captured orbit closed: its last section repeats its first and its
+  /// events repeat those of the orbit before, surface by surface.
+  bool orbit_closes() const;
   /// @brief Grid points at t_end, summary means, statistics and the final state.
   void finish();
+  /// @brief The rest of the run from the closed orbit (synthesize_rest), then as finish().
+  void finish_from_orbit();
   State current_state() const { return Eigen::Map<const State>(NV_DATA_S(solver_.y())); }
 
   const Model& model_;
@@ -138,6 +158,15 @@ class EventLoop {
   Segment segment_;
   double t_ = 0;
   long calls_ = 0, stalled_ = 0;
+  // The steady-state engine (RunOptions::steady == Auto).
+  std::optional<PeriodDetector> detector_;
+  std::optional<Orbit> orbit_;   ///< the orbit being captured
+  long orbit_k0_ = 0;            ///< its first section
+  int orbit_n_ = 0;              ///< its period in cycles
+  bool closing_repeats_ = false; ///< its closing section repeated its first
+  bool ready_ = false;           ///< an orbit closed: the rest is built from it
+  long sections_seen_ = 0;
+  double recorded_to_ = 0;
 };
 
 EventLoop::EventLoop(const Model& model, const RunOptions& opts,
@@ -159,24 +188,95 @@ EventLoop::EventLoop(const Model& model, const RunOptions& opts,
   r_.f_exc_hz = horizon_.f_exc_hz;
   r_.t_end = horizon_.t_end;
   if (opts.max_step > 0) solver_.set_max_step(opts.max_step);
+  r_.x_static = model.static_positions();
+  r_.steady.enabled = opts.steady == Steady::Auto;
+  r_.steady.tolerance = opts.steady_tolerance();
+  if (r_.steady.enabled) detector_.emplace(opts, absolute_tolerances(opts));
 }
 
 void EventLoop::run() {
   const State y0 = initial_displacements(model_, opts_);
   contacts_.start(y0);
   restart(0.0, y0);
-  while (true) {
+  while (!ready_) {
     const double t_prev = t_;
     double tret = t_;
     const int flag = take_step(tret);
+    if (detector_) detector_->observe(current_state());
     if (flag != CV_ROOT_RETURN && restart_at_missed_crossing(t_prev, tret)) continue;
-    recorder_.record_until(tret, segment_, contacts_.modes());
+    record_until(tret);
     check_progress(tret);
     t_ = tret;
-    if (flag == CV_TSTOP_RETURN || t_ >= horizon_.t_end) break;
+    if (flag == CV_TSTOP_RETURN || t_ >= horizon_.t_end) {
+      ready_ = false;  // the run reached its end: nothing is left to build
+      break;
+    }
     if (flag == CV_ROOT_RETURN) restart_at_roots();
   }
-  finish();
+  if (ready_)
+    finish_from_orbit();
+  else
+    finish();
+}
+
+void EventLoop::record_until(double tlim) {
+  const double t_lo = recorded_to_;
+  recorder_.record_until(tlim, segment_, contacts_.modes());
+  recorded_to_ = tlim;
+  if (detector_) watch_steady_state(t_lo, tlim);
+}
+
+void EventLoop::watch_steady_state(double t_lo, double tlim) {
+  const Vec7& xs = model_.static_positions();
+  while (sections_seen_ < recorder_.sections_recorded()) {
+    const long k = sections_seen_++;
+    State y = r_.poincare.row(k).transpose();
+    y.head<kDof>() -= xs;
+    const int n = detector_->add_section(k, y);
+    if (orbit_) {
+      if (k == orbit_k0_ + orbit_n_) closing_repeats_ = detector_->repeats(k, orbit_n_, y);
+      continue;
+    }
+    const double t_k = r_.poincare_t[k];
+    // Worth it only if the orbit closes well before the end of the run.
+    if (n > 0 && t_k + (n + 1) * horizon_.period < horizon_.t_end) {
+      orbit_.emplace(t_k, n * horizon_.period);
+      orbit_k0_ = k;
+      orbit_n_ = n;
+      closing_repeats_ = false;
+    }
+  }
+  if (!orbit_) return;
+  CvodeSolver::StepInterpolant step;
+  if (!solver_.last_interpolant(step)) {  // no copy of the steps can be kept: run literally
+    orbit_.reset();
+    detector_.reset();
+    return;
+  }
+  orbit_->add(t_lo, tlim, step, contacts_.modes());
+  if (!orbit_->closed() || sections_seen_ <= orbit_k0_ + orbit_n_) return;
+  if (closing_repeats_ && tlim < horizon_.t_end && orbit_closes()) {
+    ready_ = true;
+  } else {
+    orbit_.reset();
+  }
+}
+
+bool EventLoop::orbit_closes() const {
+  const double t0 = orbit_->t0(), period = orbit_->period();
+  const double slack = r_.steady.tolerance * period;
+  std::vector<const ContactEvent*> before, during;
+  for (const auto& e : r_.events) {
+    if (e.t > t0 - period && e.t <= t0) before.push_back(&e);
+    if (e.t > t0 && e.t <= t0 + period) during.push_back(&e);
+  }
+  if (before.size() != during.size()) return false;
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    const ContactEvent &a = *before[i], &b = *during[i];
+    if (a.surface != b.surface || a.kind != b.kind) return false;
+    if (std::abs(b.t - a.t - period) > slack) return false;
+  }
+  return true;
 }
 
 int EventLoop::take_step(double& tret) {
@@ -196,7 +296,7 @@ bool EventLoop::restart_at_missed_crossing(double t_prev, double tret) {
       t_prev, tret, Eigen::Map<const State>(NV_DATA_S(solver_.y())), segment_);
   if (c.surface < 0) return false;
   const State yx = segment_.interpolate(c.t);  // a copy: recording reuses the scratch vector
-  recorder_.record_until(c.t, segment_, contacts_.modes());  // up to the switch, old modes
+  record_until(c.t);  // up to the switch, old modes
   contacts_.apply_missed(c, yx);
   restart(c.t, yx);
   return true;
@@ -236,6 +336,27 @@ void EventLoop::finish() {
   r_.stats = solver_.stats();
   r_.y_end.head<kDof>() = model_.static_positions() + ye.head<kDof>();
   r_.y_end.tail<kDof>() = ye.tail<kDof>();
+  r_.steady.stopped_cycle = horizon_.t_end / horizon_.period;
+  r_.steady.residual = std::numeric_limits<double>::quiet_NaN();
+}
+
+void EventLoop::finish_from_orbit() {
+  Orbit& orbit = *orbit_;
+  orbit.take_events(r_.events);
+  auto& info = r_.steady;
+  info.period = orbit_n_;
+  info.detected_cycle = static_cast<double>(orbit_k0_);
+  info.stopped_cycle = recorded_to_ / horizon_.period;
+  info.residual = detector_->residual();
+  info.window_on_orbit = horizon_.t_window >= orbit.t0() - 1e-12 * horizon_.t_end;
+  if (info.window_on_orbit && opts_.orbit_replaces_window && opts_.record == Record::Window)
+    recorder_.drop_output();
+  // Events integrated past the orbit's end are its first ones again: not replayed twice.
+  long integrated_after = 0;
+  for (const auto& e : r_.events) integrated_after += e.t > orbit.t0() + orbit.period();
+  synthesize_rest(model_, opts_, horizon_, orbit, recorded_to_, integrated_after, recorder_, r_);
+  recorder_.finish();
+  r_.stats = solver_.stats();
 }
 
 }  // namespace

@@ -130,6 +130,16 @@ void Recorder::record_summary(double tlim, const Trajectory& segment, const Mode
   }
 }
 
+void Recorder::drop_output() {
+  out_ = TimeGrid();
+  r_.t.resize(0);
+  r_.x.resize(0, kDof);
+  r_.v.resize(0, kDof);
+  r_.a.resize(0, kDof);
+  r_.fc.resize(0, kSurfaces);
+  r_.fh.resize(0);
+}
+
 void Recorder::finish() {
   auto& sm = r_.summary;
   for (const auto& e : r_.events)

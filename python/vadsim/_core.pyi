@@ -27,6 +27,10 @@ class Record(enum.Enum):
     Window = 1
     All = 2
 
+class Steady(enum.Enum):
+    Full = 0
+    Auto = 1
+
 class Params:
     law: ContactLawKind
     m1: float
@@ -141,7 +145,16 @@ class RunOptions:
     max_steps: int
     max_events: int
     initial_state: npt.NDArray[np.float64] | None
+    initial_displacement: npt.NDArray[np.float64] | None
+    steady: Steady
+    steady_max_period: int
+    steady_min_cycles: float
+    steady_confirm_cycles: int
+    steady_tol: float
+    orbit_rate_hz: float
+    orbit_replaces_window: bool
     def __init__(self) -> None: ...
+    def steady_tolerance(self) -> float: ...
     def step_budget(self) -> int: ...
     def event_budget(self) -> int: ...
     def validate(self, params: Params = ...) -> None: ...
@@ -167,6 +180,15 @@ class WindowSummary:
     impulse_pos: float
     window_peaks: npt.NDArray[np.float64]
 
+class SteadyInfo:
+    enabled: bool
+    period: int
+    detected_cycle: float
+    stopped_cycle: float
+    residual: float
+    tolerance: float
+    window_on_orbit: bool
+
 class RunResult:
     flow_gpm: float
     f_exc_hz: float
@@ -182,6 +204,11 @@ class RunResult:
     summary: WindowSummary
     stats: SolverStats
     y_end: npt.NDArray[np.float64]
+    x_static: npt.NDArray[np.float64]
+    steady: SteadyInfo
+    orbit_t: npt.NDArray[np.float64]
+    orbit_a: npt.NDArray[np.float64]
+    orbit_period_s: float
     @property
     def event_t(self) -> npt.NDArray[np.float64]: ...
     @property

@@ -51,6 +51,25 @@ class CvodeSolver {
   void interpolate_with_cvode(double t, N_Vector out) const;
   /// @brief The order of the last step (CVodeGetLastOrder).
   int last_order() const;
+
+  /// @brief Most columns of a Nordsieck array (Adams order 12 + 1).
+  static constexpr int kMaxColumns = 13;
+  /// @brief The last step's interpolant as CVODE holds it: y(t) = sum_j s^j zn[j],
+  /// s = (t - tn) / h, j = 0..q, valid on [tn - h, tn]. The columns point into CVODE's
+  /// memory: copy them before the next step.
+  struct StepInterpolant {
+    double tn = 0, h = 0;
+    int q = -1;
+    const double* zn[kMaxColumns] = {};
+  };
+  /// @brief The last step's interpolant; false where vadsim cannot read the Nordsieck array
+  /// (then only CVodeGetDky can interpolate, and no copy of the step can be kept).
+  bool last_interpolant(StepInterpolant& out) const;
+  /// @brief sum_j s^j zn[j] with s = (t - tn) / h, formed exactly as CVodeGetDky forms it
+  /// (the same coefficients, order of terms and kernel): interpolate() and a kept copy of a
+  /// step give the same bits.
+  static void evaluate_interpolant(double t, double tn, double h, int q,
+                                   const double* const* zn, double* out);
   /// @brief Which roots fired at the last CV_ROOT_RETURN: +1 rising, -1 falling, 0 none.
   const int* roots_found();
 
@@ -82,7 +101,7 @@ class CvodeSolver {
   /// dense_output). Where anything does not fit (an order beyond the columns captured, a t
   /// outside the last step), CVodeGetDky itself answers.
   struct Nordsieck {
-    static constexpr int kMaxColumns = 13;  ///< Adams order 12 + 1
+    static constexpr int kMaxColumns = CvodeSolver::kMaxColumns;
     const double* zn[kMaxColumns] = {};     ///< data of zn[0..captured]
     int captured = -1;                      ///< highest column captured
     bool current = false;                   ///< tn, h, q hold for the last step

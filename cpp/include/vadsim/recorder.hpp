@@ -31,6 +31,8 @@ class TimeGrid {
   bool pending(double tlim) const { return next_ < n_ && time(next_) <= tlim; }
   /// @brief The next point's index; moves past it.
   long take() { return next_++; }
+  /// @brief Points recorded so far.
+  long done() const { return next_; }
 
  private:
   double t0_ = 0, dt_ = 1;
@@ -50,6 +52,11 @@ class Recorder {
 
   /// @brief Count the window's onsets and turn the impulse sums into means.
   void finish();
+
+  /// @brief Poincare section points recorded so far (rows of RunResult::poincare).
+  long sections_recorded() const { return sec_.done(); }
+  /// @brief Drop the stored output grid (no rows): a periodic run's orbit table stands for it.
+  void drop_output();
 
  private:
   void size_grids(const RunOptions& opts, const Horizon& horizon);

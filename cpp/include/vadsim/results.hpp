@@ -48,6 +48,18 @@ struct WindowSummary {
   RowMat7 window_peaks;      ///< max |a| (m/s^2) per full 200 ms window, per dof
 };
 
+/// @brief What the steady-state engine did (RunOptions::steady): whether the run stopped at a
+/// periodic orbit, where, and how closely the orbit repeated.
+struct SteadyInfo {
+  bool enabled = false;         ///< RunOptions::steady was Auto
+  int period = 0;               ///< cycles of the detected orbit; 0: none, the run is literal
+  double detected_cycle = 0;    ///< where the orbit recorded for the rest starts (t / period)
+  double stopped_cycle = 0;     ///< where integration stopped (t / period); cycles if it did not
+  double residual = 0;          ///< largest repeat difference over its component's amplitude
+  double tolerance = 0;         ///< the relative tolerance residual was held to
+  bool window_on_orbit = false; ///< the whole analysed window is built from the orbit
+};
+
 /// @brief Everything one run produces. Positions are absolute (m), as in MODEL.md.
 struct RunResult {
   double flow_gpm = 0, f_exc_hz = 0, t_end = 0;
@@ -61,6 +73,14 @@ struct RunResult {
   WindowSummary summary;
   SolverStats stats;
   State y_end;  ///< final [x; v], to continue a sweep from
+  Vec7 x_static = Vec7::Zero();  ///< the static positions (m) the run's displacements are from
+  SteadyInfo steady;
+  /// One period of the detected orbit on a uniform grid (RunOptions::orbit_rate_hz):
+  /// orbit_t[j] = start + j P / M (absolute s), orbit_a the accelerations there (m/s^2).
+  /// Empty without an orbit.
+  Eigen::VectorXd orbit_t;
+  RowMat7 orbit_a;
+  double orbit_period_s = 0;  ///< P = period / f_exc (s); 0 without an orbit
 };
 
 }  // namespace vadsim
