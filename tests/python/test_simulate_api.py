@@ -713,7 +713,8 @@ def test_friction_and_dashpot_run(r200):
 # Hang guard only: an interrupted child ends in well under a second; a child that ignored the
 # signal would run its whole horizon (100000 cycles, minutes) and be killed here.
 HANG_GUARD_S = 60.0
-LONG_RUN = "cycles=100000, analyse_cycles=10, record='none', summary_rate_hz=2000"
+LONG_RUN = ("cycles=100000, analyse_cycles=10, record='none', summary_rate_hz=2000, "
+            "steady='full'")  # every cycle integrated: the run outlasts the signal
 NOTE_RE = re.compile(r"simulation interrupted at t = (\S+) s of t_end = (\S+) s, after (\d+) "
                      r"steps")
 

@@ -57,7 +57,7 @@ def test_a_fraction_of_a_cycle_is_not_continued_and_zero_extensions_is_a_plain_r
 @pytest.mark.parametrize("kw, name", [
     (dict(max_extensions=-1), "max_extensions"), (dict(max_extensions=True), "max_extensions"),
     (dict(drift_tol=0.0), "drift_tol"), (dict(drift_tol=math.nan), "drift_tol"),
-    (dict(initial_state=np.zeros(14)), "initial_state"),
+    (dict(initial_displacement=np.zeros(3)), "initial_displacement"),
 ])
 def test_bad_options_are_refused_by_name(kw, name):
     with pytest.raises(ValueError, match=name):

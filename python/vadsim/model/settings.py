@@ -105,6 +105,9 @@ class RunSettings:
         Weight on bit (klbf) when the operating point does not give one (None: the preset's).
     method, rtol
         CVODE method and relative tolerance.
+    steady
+        ``"auto"`` (default): a run stops at a confirmed periodic orbit and is built from it;
+        ``"full"``: every cycle integrated (:func:`vadsim.simulate`).
     """
 
     preset: Preset
@@ -116,6 +119,7 @@ class RunSettings:
     wob_klbf: float | None = None
     method: str = "adams"
     rtol: float = 1e-6
+    steady: str = "auto"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "preset", get_preset(self.preset))
@@ -161,6 +165,7 @@ class RunSettings:
         :func:`vadsim.simulate`'s output and budget options (``record``, ``output_rate_hz``,
         ``summary_rate_hz``, ``initial_state``...)."""
         wob = wob_klbf if wob_klbf is not None else self.wob_klbf
+        options.setdefault("steady", self.steady)
         return simulate(self.preset, flow_gpm, cycles=self.cycles,
                         analyse_cycles=self.analyse_cycles, overrides=self.overrides,
                         wob_klbf=wob, law=self.law, method=self.method, rtol=self.rtol,
@@ -174,4 +179,4 @@ class RunSettings:
                 "cycles": float(self.cycles), "analyse_cycles": float(self.analyse_cycles),
                 "wob_klbf": float(self.wob_klbf if self.wob_klbf is not None
                                   else self.preset.wob_klbf),
-                "method": self.method, "rtol": float(self.rtol)}
+                "method": self.method, "rtol": float(self.rtol), "steady": self.steady}

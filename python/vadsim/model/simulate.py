@@ -24,9 +24,12 @@ from vadsim.model.regimes import regime_name, scenario
 
 __all__ = [
     "G",
+    "STEADY_MODES",
     "SURFACES",
+    "Orbit",
     "SimulationResult",
     "SolverError",
+    "SteadyInfo",
     "extra_force",
     "simulate",
 ]
@@ -42,6 +45,11 @@ EVENT_KINDS = ("onset", "release", "lift", "relatch")
 DOF_NAMES = ("bit", "anvil", "housing", "motor", "sub", "lwd", "mwd")
 _METHODS = {"adams": _core.Method.Adams, "bdf": _core.Method.BDF}
 _RECORDS = {"none": _core.Record.None_, "window": _core.Record.Window, "all": _core.Record.All}
+_STEADY = {"auto": _core.Steady.Auto, "full": _core.Steady.Full}
+STEADY_MODES = tuple(_STEADY)
+"""The values of ``simulate(steady=...)``: ``"auto"`` stops at a confirmed periodic orbit and
+builds the rest of the run from it; ``"full"`` integrates every cycle (the dissertation's
+literal run)."""
 _BODY = {"bit": 0, "anvil": 1, "housing": 2, "motor": 3, "sub": 4, "lwd": 5, "mwd": 6}
 
 SolverError = _core.SolverError
@@ -118,6 +126,95 @@ def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
     return out
 
 
+@dataclass(frozen=True)
+class SteadyInfo:
+    """What the steady-state engine did in one run (``simulate(steady=...)``).
+
+    Attributes
+    ----------
+    mode
+        ``"auto"`` or ``"full"``.
+    period
+        Excitation cycles of the detected periodic orbit; 0 when none was confirmed (the run
+        then integrated every cycle, exactly as ``"full"``).
+    detected_cycle
+        The cycle at which the recorded orbit starts (its state there repeated, within the
+        tolerance, over the confirming cycles before it).
+    stopped_cycle
+        The cycle at which integration stopped (``cycles`` when it did not).
+    residual
+        The largest difference between a section and the one ``period`` cycles before, over
+        the confirming cycles and the recorded orbit, relative to each state component's
+        amplitude (NaN without an orbit).
+    tolerance
+        The relative tolerance ``residual`` was held to (1000 x rtol by default).
+    window_on_orbit
+        The whole analysed window was built from the orbit.
+    """
+
+    mode: str
+    period: int
+    detected_cycle: float
+    stopped_cycle: float
+    residual: float
+    tolerance: float
+    window_on_orbit: bool
+
+    @property
+    def periodic(self) -> bool:
+        """A periodic orbit was confirmed and the run built from it."""
+        return self.period > 0
+
+    def __str__(self) -> str:
+        if not self.periodic:
+            return f"steady={self.mode}: no periodic orbit confirmed, every cycle integrated"
+        return (f"steady={self.mode}: period-{self.period} orbit from cycle "
+                f"{self.detected_cycle:g}, integration stopped at cycle "
+                f"{self.stopped_cycle:.4g} (residual {self.residual:.2g} <= "
+                f"{self.tolerance:.2g})")
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """One period of a periodic run's steady orbit on a uniform grid.
+
+    ``a[j]`` is the acceleration (m/s^2, 7 bodies) at ``t[j] = start + j * period_s / len(t)``;
+    the run repeats it: the acceleration at any later time ``t`` is the orbit's at
+    ``start + (t - start) mod period_s`` (:meth:`at`).
+    """
+
+    t: np.ndarray
+    a: np.ndarray
+    period_s: float
+    cycles: int
+
+    @property
+    def start(self) -> float:
+        """Time (s) at which the orbit starts."""
+        return float(self.t[0])
+
+    @property
+    def accel_g(self) -> np.ndarray:
+        """Accelerations in g, shape (M, 7)."""
+        return self.a / G
+
+    def at(self, times: np.ndarray, dof: int) -> np.ndarray:
+        """Acceleration (g) of body ``dof`` (1..7) at ``times`` (s, at or after the start),
+        by linear interpolation on the periodic grid."""
+        if not 1 <= dof <= 7:
+            raise ValueError(f"dof = {dof} must be in 1..7")
+        m = self.t.size
+        # The grid is uniform over one period: the interval of each time is arithmetic.
+        pos = np.asarray(times, dtype=float) - self.start
+        pos *= m / self.period_s
+        i0 = np.floor(pos)
+        frac = pos - i0
+        i = np.mod(i0.astype(np.int64), m)
+        col = self.a[:, dof - 1] / G
+        nxt = np.append(col[1:], col[0])
+        return col[i] + frac * (nxt[i] - col[i])
+
+
 @dataclass
 class SimulationResult:
     """One run: time series of the recorded span, events, steady-window summary, statistics.
@@ -150,6 +247,9 @@ class SimulationResult:
     stats: dict[str, int]
     y_end: np.ndarray
     m_ref_kg: float | None = None
+    x_static: np.ndarray | None = None
+    steady_info: SteadyInfo | None = None
+    orbit: Orbit | None = None
     _core_result: Any = field(default=None, repr=False)
 
     @property
@@ -161,6 +261,17 @@ class SimulationResult:
     def period_s(self) -> float:
         """Excitation period (s)."""
         return 1.0 / self.f_exc_hz
+
+    @property
+    def end_displacement(self) -> np.ndarray:
+        """The final state as displacements from the run's static state and velocities,
+        ``[u1..u7, v1..v7]``: what ``simulate(initial_displacement=...)`` takes to start
+        another model (whose static state may differ) in the same motion."""
+        if self.x_static is None:
+            raise ValueError("this result does not record its static state")
+        out = np.array(self.y_end, dtype=float)
+        out[:7] -= self.x_static
+        return out
 
     @property
     def accel_g(self) -> np.ndarray:
@@ -225,6 +336,8 @@ class SimulationResult:
             ("J* (mean of max(F_I, 0))", j),
             ("solver", f"{self.stats['steps']} steps, {self.stats['reinits']} contact events"),
         ]
+        if self.steady_info is not None:
+            rows.append(("steady state", str(self.steady_info)))
         return key_value_table(f"SimulationResult: {self.preset or 'custom parameters'}", rows)
 
     def to_xarray(self) -> Any:
@@ -266,12 +379,16 @@ class SimulationResult:
         return ds
 
 
-def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None):
+def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None,
+                   name: str = "initial_state"):
     if value is None:
         return None
     if isinstance(value, SimulationResult):
+        if name != "initial_state":
+            raise ValueError(f"{name} must be 14 numbers (a result's end_displacement)")
         value = value.y_end
-    bad = ValueError(f"initial_state = {value!r} must be 14 numbers or a result")
+    bad = ValueError(f"{name} = {value!r} must be 14 numbers"
+                     + (" or a result" if name == "initial_state" else ""))
     if isinstance(value, (str, bytes)):
         raise bad
     try:
@@ -284,9 +401,9 @@ def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None
     except (TypeError, ValueError):
         raise bad from None
     if arr.shape != (14,):
-        raise ValueError(f"initial_state must have 14 entries [x1..x7, v1..v7], got {arr.shape}")
+        raise ValueError(f"{name} must have 14 entries [x1..x7, v1..v7], got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError("initial_state must be finite")
+        raise ValueError(f"{name} must be finite")
     return arr
 
 
@@ -308,9 +425,13 @@ def simulate(
     output_rate_hz: float = 20000.0,
     summary_rate_hz: float = 20000.0,
     initial_state: Sequence[float] | np.ndarray | SimulationResult | None = None,
+    initial_displacement: Sequence[float] | np.ndarray | None = None,
     max_steps: int | None = None,
     max_events: int | None = None,
     accelerations_only: bool = False,
+    steady: str = "auto",
+    orbit_rate_hz: float = 0.0,
+    orbit_replaces_window: bool = False,
 ) -> SimulationResult:
     """Run the model at one flow rate: static on-bottom state, flow on at t = 0.
 
@@ -346,10 +467,30 @@ def simulate(
     initial_state
         Absolute ``[x1..x7, v1..v7]`` or a previous result (its final state), instead of the
         static equilibrium: continuation along a flow sweep.
+    initial_displacement
+        ``[u1..u7, v1..v7]``: displacements from this run's own static state and
+        velocities (a result's ``end_displacement``), instead of ``initial_state``: another
+        model's steady motion carried over to this one even where a WOB or a length moved
+        the static state (an absolute state would then start centimetres off).
     accelerations_only
         Store only ``t`` and ``a`` (``x``, ``v`` and the forces are empty, 0 rows): what a
         sensor measures. A third of the memory at the same run; a fresh process storing a
         20 kHz window took 0.89x as long (fewer page faults), a long diagnosis about 1 % less.
+    steady
+        ``"auto"`` (default): once the state on the once-per-cycle Poincare section repeats
+        after n = 1..8 cycles (within 1000 x ``rtol`` of each state component's amplitude, over
+        at least max(2n, 6) consecutive cycles and again over one more recorded orbit whose
+        contact events repeat those of the orbit before), stop integrating and build the rest
+        of the run from that orbit: events shifted by whole orbits, Z*, J*, the 200 ms peaks,
+        the stored series and the Poincare section, with the same shapes as a full run.
+        Where no orbit is confirmed, every cycle is integrated, exactly as ``"full"``.
+        ``"full"``: the dissertation's literal run, every cycle integrated. ``steady_info``
+        says which happened.
+    orbit_rate_hz, orbit_replaces_window
+        With ``steady="auto"`` and an orbit: return one period of it on a uniform grid of
+        about ``orbit_rate_hz`` (``result.orbit``; 0: none); with ``orbit_replaces_window``
+        and the whole analysed window on the orbit, leave the stored series empty (a
+        measurement reads the orbit instead of its 200 copies).
     max_steps, max_events
         Budgets that turn a pathological input into a :class:`SolverError` instead of a hang.
         ``None`` (default): budgets that grow with the run, 20000 steps per cycle (at least
@@ -409,6 +550,11 @@ def simulate(
         raise ValueError(f"record = {record!r} must be 'window', 'all' or 'none'")
     if not isinstance(accelerations_only, (bool, np.bool_)):
         raise ValueError(f"accelerations_only = {accelerations_only!r} must be True or False")
+    if not isinstance(steady, str) or steady not in _STEADY:
+        raise ValueError(f"steady = {steady!r} must be 'auto' or 'full'")
+    if not isinstance(orbit_replaces_window, (bool, np.bool_)):
+        raise ValueError(f"orbit_replaces_window = {orbit_replaces_window!r} must be True or "
+                         "False")
     budgets = {}
     for name, value in (("max_steps", max_steps), ("max_events", max_events)):
         budgets[name] = _budget(name, value)
@@ -418,10 +564,18 @@ def simulate(
                         output_rate_hz=output_rate_hz, summary_rate_hz=summary_rate_hz,
                         max_steps=budgets["max_steps"], max_events=budgets["max_events"],
                         initial_state=initial_state)
+    if initial_displacement is not None:
+        if initial_state is not None:
+            raise ValueError("initial_state and initial_displacement: give one, not both")
+        start = _initial_state(initial_displacement, "initial_displacement")
+        opts.initial_displacement = start
     opts.accelerations_only = bool(accelerations_only)
+    opts.steady = _STEADY[steady]
+    opts.orbit_rate_hz = _number("option orbit_rate_hz", orbit_rate_hz)
+    opts.orbit_replaces_window = bool(orbit_replaces_window)
     opts.validate(params)  # what depends on the model (the flow range, checked above)
     r = _core.simulate(core_model, opts)
-    return _result(r, params, preset, flow, cycles, analyse_cycles)
+    return _result(r, params, preset, flow, cycles, analyse_cycles, steady)
 
 
 def _flow(params: _core.Params, flow_gpm: Any) -> float:
@@ -480,8 +634,19 @@ def _run_options(flow: float, *, cycles: float, analyse_cycles: float, method: s
     return opts
 
 
+def _steady_parts(r: Any, mode: str) -> tuple[SteadyInfo, Orbit | None]:
+    st = r.steady
+    info = SteadyInfo(mode=mode, period=int(st.period), detected_cycle=float(st.detected_cycle),
+                      stopped_cycle=float(st.stopped_cycle), residual=float(st.residual),
+                      tolerance=float(st.tolerance), window_on_orbit=bool(st.window_on_orbit))
+    t = np.asarray(r.orbit_t)
+    orbit = (Orbit(t=t, a=np.asarray(r.orbit_a), period_s=float(r.orbit_period_s),
+                   cycles=info.period) if t.size else None)
+    return info, orbit
+
+
 def _result(r: Any, params: _core.Params, preset: Preset | None, flow: float, cycles: float,
-            analyse_cycles: float) -> SimulationResult:
+            analyse_cycles: float, steady: str = "auto") -> SimulationResult:
     """The core's raw result as a :class:`SimulationResult`."""
     kinds = np.asarray(r.event_kind)
     surf = np.asarray(r.event_surface)
@@ -498,6 +663,7 @@ def _result(r: Any, params: _core.Params, preset: Preset | None, flow: float, cy
         "steps", "rhs_evals", "jac_evals", "lin_setups", "err_test_fails", "nonlin_iters",
         "nonlin_conv_fails", "root_evals", "reinits")}
     values = params.__getstate__()
+    info, orbit = _steady_parts(r, steady)
     return SimulationResult(
         preset=preset.name if preset else None,
         # an unset optional parameter (nan) is left out: it has no value, and nan != nan
@@ -524,5 +690,8 @@ def _result(r: Any, params: _core.Params, preset: Preset | None, flow: float, cy
         stats=stats,
         y_end=np.asarray(r.y_end),
         m_ref_kg=preset.m_ref_kg if preset else None,
+        x_static=np.asarray(r.x_static),
+        steady_info=info,
+        orbit=orbit,
         _core_result=r,
     )

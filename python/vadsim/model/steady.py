@@ -60,7 +60,8 @@ def window_drift(r: SimulationResult) -> float:
 
 def steady_run(settings: RunSettings, flow_gpm: float, *, wob_klbf: float | None = None,
                max_extensions: int = MAX_EXTENSIONS, drift_tol: float = DRIFT_TOL,
-               **options: Any) -> SimulationResult:
+               initial_displacement: np.ndarray | None = None, **options: Any
+               ) -> SimulationResult:
     """:meth:`RunSettings.run`, continued from its final state while its window drifts.
 
     Parameters
@@ -71,9 +72,12 @@ def steady_run(settings: RunSettings, flow_gpm: float, *, wob_klbf: float | None
         Continuations at most (0: a plain run).
     drift_tol
         :func:`window_drift` that counts as settled.
+    initial_displacement
+        Where the first run starts, ``[u; v]`` about its own static state (e.g. a base
+        model's steady motion at the same operating point, ``end_displacement``: a warm
+        start); None: from rest.
     options
-        :func:`vadsim.simulate`'s output options; not ``initial_state`` (a steady run starts
-        from rest, like the runs it replaces).
+        :func:`vadsim.simulate`'s output options.
 
     Returns
     -------
@@ -83,17 +87,15 @@ def steady_run(settings: RunSettings, flow_gpm: float, *, wob_klbf: float | None
     Raises
     ------
     ValueError
-        For a negative ``max_extensions``, a drift tolerance that is not a positive number,
-        or an ``initial_state`` in ``options``.
+        For a negative ``max_extensions`` or a drift tolerance that is not a positive number.
     """
     if isinstance(max_extensions, bool) or not isinstance(max_extensions, int) \
             or max_extensions < 0:
         raise ValueError(f"max_extensions = {max_extensions!r} must be an integer >= 0")
     if not (isinstance(drift_tol, (int, float)) and math.isfinite(drift_tol) and drift_tol > 0):
         raise ValueError(f"drift_tol = {drift_tol!r} must be a positive number")
-    if "initial_state" in options:
-        raise ValueError("steady_run starts from rest: initial_state is not an option")
-    r = settings.run(flow_gpm, wob_klbf=wob_klbf, **options)
+    r = settings.run(flow_gpm, wob_klbf=wob_klbf, initial_displacement=initial_displacement,
+                     **options)
     # A fraction of a cycle would restart the excitation out of phase.
     whole = float(settings.cycles).is_integer()
     extensions = 0
