@@ -56,6 +56,7 @@ RMS is biased low by clipping but leaving windows out would bias it further.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Mapping, Sequence
@@ -288,30 +289,52 @@ def _band_rms(
     power A^2/2 there, i.e. A / sqrt(2) RMS, whether or not it falls on a bin. Bins count in
     ``[lo, hi)``; a band ending at the Nyquist rate includes the Nyquist bin.
     """
-    nyquist = rate_hz / 2.0
     lengths = np.diff(bounds)
     out = np.empty((lengths.size, len(bands)))
     for length in np.unique(lengths):
         rows = np.flatnonzero(lengths == length)
-        segments = np.stack([a[bounds[i] : bounds[i] + length] for i in rows])
-        w = get_window("hann", int(length))
-        offset = segments @ w / np.sum(w)
+        n = int(length)
+        if rows.size > 1 and np.all(np.diff(bounds[rows]) == n):  # back to back: a view
+            start = int(bounds[rows[0]])
+            segments = a[start : start + rows.size * n].reshape(rows.size, n)
+        else:
+            segments = np.stack([a[bounds[i] : bounds[i] + n] for i in rows])
+        w, w_mean, scale, bins_of = _band_plan(n, float(rate_hz), tuple(bands))
+        offset = segments @ w_mean
         # scipy.signal.periodogram's one-sided density, without its per-call overhead
         # (it was a tenth of a diagnosis' feature time)
         spec = np.fft.rfft((segments - offset[:, np.newaxis]) * w, axis=-1)
-        psd = (spec.real ** 2 + spec.imag ** 2) / (rate_hz * np.sum(w * w))
-        psd[:, 1 : psd.shape[1] - (1 if length % 2 == 0 else 0)] *= 2.0
-        freqs = np.fft.rfftfreq(int(length), 1.0 / rate_hz)
-        df = rate_hz / length
-        for j, (lo, hi) in enumerate(bands):
-            mask = (freqs >= lo) & ((freqs < hi) | ((hi >= nyquist) & (freqs <= hi)))
-            if not np.any(mask):
-                raise ValueError(
-                    f"bands: band ({lo:g}, {hi:g}) Hz holds no frequency bin of a "
-                    f"{length}-sample window (bin width {df:.3g} Hz); widen it or the window"
-                )
-            out[rows, j] = np.sqrt(np.sum(psd[:, mask], axis=1) * df)
+        psd = (spec.real ** 2 + spec.imag ** 2) * scale
+        out[rows] = np.sqrt(psd @ bins_of)
     return out
+
+
+@functools.lru_cache(maxsize=64)
+def _band_plan(length: int, rate_hz: float, bands: tuple[tuple[float, float], ...]
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What :func:`_band_rms` needs for windows of ``length`` samples, made once: the Hann
+    window, its weights for the weighted mean, each bin's density scale (one-sided, times
+    the bin width) and the bins-by-bands matrix whose product with a periodogram sums each
+    band. ValueError for a band that holds no bin."""
+    nyquist = rate_hz / 2.0
+    w = get_window("hann", length)
+    scale = np.full(length // 2 + 1, 1.0 / (rate_hz * np.sum(w * w)))
+    scale[1 : scale.size - (1 if length % 2 == 0 else 0)] *= 2.0
+    scale *= rate_hz / length
+    freqs = np.fft.rfftfreq(length, 1.0 / rate_hz)
+    bins_of = np.zeros((freqs.size, len(bands)))
+    for j, (lo, hi) in enumerate(bands):
+        mask = (freqs >= lo) & ((freqs < hi) | ((hi >= nyquist) & (freqs <= hi)))
+        if not np.any(mask):
+            raise ValueError(
+                f"bands: band ({lo:g}, {hi:g}) Hz holds no frequency bin of a "
+                f"{length}-sample window (bin width {rate_hz / length:.3g} Hz); widen it or "
+                "the window"
+            )
+        bins_of[mask, j] = 1.0
+    for arr in (w, scale, bins_of):
+        arr.flags.writeable = False
+    return w, w / np.sum(w), scale, bins_of
 
 
 # --------------------------------------------------------------------------------------------
@@ -462,11 +485,14 @@ def _sensor(
             "impacts_per_cycle", impact_hz / f_exc_hz, rates / f_exc_hz
         )
 
-    # Band RMS.
+    # Band RMS: every band's mean and spread in one reduction each (as _feature forms them).
     rms = _band_rms(a, rate_hz, bounds, band_list)
+    means = rms.mean(axis=0)
+    sds = (rms.std(axis=0, ddof=1) if n_windows >= _MIN_WINDOWS
+           else np.full(len(band_list), math.nan))
     for j, (lo, hi) in enumerate(band_list):
-        key = band_key(lo, hi)
-        out[key] = _feature(key, float(np.mean(rms[:, j])), rms[:, j])
+        value = float(means[j])
+        out[band_key(lo, hi)] = Feature(value, _floored(float(sds[j]), value, "g"), n_windows)
     return _SensorResult(out, peaks, usable)
 
 

@@ -675,11 +675,15 @@ def noisy_quantiles(a: np.ndarray, noise_g: float, range_g: float | None = None,
     separates sensors); its marginal distribution is what the quantiles see, whatever the
     sampling rate."""
     x = np.asarray(a, dtype=float)
+    # One buffer, worked in place (the same operations and values as out-of-place ones): a
+    # diagnosis takes these quantiles of every fine sample of every run it measures.
+    buf = np.multiply(_unit_noise(x.size, stream), noise_g) if noise_g > 0.0 else x.copy()
     if noise_g > 0.0:
-        x = x + noise_g * _unit_noise(x.size, stream)
+        buf += x
         if range_g is not None:
-            x = np.clip(x, -range_g, range_g)
-    return np.asarray(np.percentile(np.abs(x), QUANTILES), dtype=float)
+            np.clip(buf, -range_g, range_g, out=buf)
+    np.abs(buf, out=buf)
+    return np.asarray(np.percentile(buf, QUANTILES, overwrite_input=True), dtype=float)
 
 
 def model_fold_features(
