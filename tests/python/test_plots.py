@@ -70,6 +70,7 @@ def _features(scen: np.ndarray, j: np.ndarray, flows: np.ndarray) -> dict[str, n
         "period": np.ones(scen.shape, np.int64),
         "periodicity": np.full(scen.shape, "period-1", dtype=object),
         "steps": np.full(scen.shape, 1000, np.int64),
+        "steady_period": np.ones(scen.shape, np.int64),
         "error": np.where(failed, "CVODE failed", ""),
     }
     for name in out:

@@ -135,7 +135,8 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
         "Writes a report (diagnosis.md/.html, diagnosis.json, figures). Example: "
         "vadsim diagnose thesis:7in-cde --predict thesis:7in-rc --json",
         parents=[parents.overrides, length_parent(cycles=300), parents.quiet,
-                 workers_parent(what="worker processes for the candidates")],
+                 workers_parent(what="worker processes for the candidates"),
+                 parents.scheduler],
     )
     _add_campaign_argument(dg)
     _add_report_options(dg, "diagnosis")
@@ -269,8 +270,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
                     max_effects=args.max_effects, max_rms=args.max_rms,
-                    review=not args.no_review,
-                    workers=args.workers, progress=not args.quiet, cache=args.cache)
+                    review=not args.no_review, workers=args.workers,
+                    progress=not args.quiet, cache=args.cache, scheduler=args.scheduler)
     if args.predict:
         predict(diag, args.predict, workers=args.workers, cache=args.cache)
     path = write_diagnosis_report(diag, args.out, fmt=args.format)

@@ -37,7 +37,7 @@ import time
 import uuid
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from dataclasses import dataclass, field
 from functools import cached_property
 from itertools import product
@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from vadsim._executors import dask_pool, local_threads
 from vadsim._version import __version__ as _version
 from vadsim.model.presets import get_preset, make_params, param_table
 from vadsim.model.settings import ExtraSpec, RunSettings
@@ -55,6 +56,7 @@ from vadsim.signals.labels import impact_frequency, periodicity, poincare_period
 from vadsim.studies.refine import Refinement, fill, lattice, next_points
 
 __all__ = [
+    "CONTINUATION_SETTLE_CYCLES",
     "CLAIM_STALE_S",
     "CLAIM_WRITE_GRACE_S",
     "DERIVED_PARAMETERS",
@@ -96,11 +98,13 @@ FEATURES: dict[str, str] = {
     "period": "period of the steady response in cycles (0: not periodic)",
     "periodicity": "period-n, quasi-periodic or aperiodic (Poincare section)",
     "steps": "CVODE steps",
+    "steady_period": "cycles of the periodic orbit the run stopped at and was built from "
+                     "(0: every cycle integrated)",
     "error": "empty, or why the run failed",
 }
 
 _TEXT_FEATURES = ("periodicity", "error")
-_INT_FEATURES = ("scenario", "period", "steps")
+_INT_FEATURES = ("scenario", "period", "steps", "steady_period")
 
 # CF-style (units, long_name) of every variable, so that xarray's plots label themselves.
 # "1" is a dimensionless number; labels (text) have no unit, hence "".
@@ -122,6 +126,7 @@ _FEATURE_ATTRS: dict[str, tuple[str, str]] = {
     "period": ("1", "period of the steady response (excitation cycles)"),
     "periodicity": ("", "periodicity of the steady response"),
     "steps": ("1", "CVODE steps"),
+    "steady_period": ("1", "period of the orbit the run was built from (cycles)"),
     "error": ("", "why the run failed"),
 }
 _FLOW_ATTRS = {"units": "gal/min", "long_name": "mud flow rate"}
@@ -131,8 +136,9 @@ _DERIVED_ATTRS = {
     "gap": {"units": "l0", "long_name": "anvil-spring gap"},
 }
 
-STORE_FORMAT = 2
-"""Version of the store's files (1: vadsim 0.1, chunks without grid hash or checksum)."""
+STORE_FORMAT = 3
+"""Version of the store's files (1: vadsim 0.1, chunks without grid hash or checksum; 2:
+rows without ``steady_period``, runs integrated to their end)."""
 
 CLAIM_STALE_S = 600.0
 """A claim not refreshed for this long (s) is taken over, whoever holds it. A live process
@@ -152,6 +158,13 @@ _CHUNK_FLOWS = 8
 # (the ~1 kHz sub-LWD mode keeps that much numerical noise), intermittent ones differ by mm.
 _SECTION_SCALE = np.r_[np.full(7, 1e-3), np.full(7, 1.0)]
 _IMPACT_RATE_HZ = 4096.0
+
+
+CONTINUATION_SETTLE_CYCLES = 50.0
+"""In continuation mode, the cycles a point started from the previous flow's state settles
+before its analysed window (the row's first flow starts from rest and settles the full
+``cycles - analyse_cycles``): the previous flow's attractor is next to this one's, and a
+periodic point stops at its orbit anyway (``steady="auto"``)."""
 
 
 class StoreWarning(UserWarning):
@@ -224,6 +237,9 @@ class PointSpec:
         Which length realises a gap change.
     detail
         ``"full"`` or ``"map"`` (see :func:`sweep`).
+    settle
+        In continuation mode, the cycles a point started from the previous flow's state
+        settles before its window (None: the settings' own).
     """
 
     settings: RunSettings
@@ -232,6 +248,7 @@ class PointSpec:
     continuation: bool = False
     gap_via: str = "spring"
     detail: str = "full"
+    settle: float | None = None
 
 
 DETAILS = {
@@ -275,6 +292,7 @@ def _features(r, analyse_cycles: float) -> dict[str, Any]:
         "period": int(period),
         "periodicity": label,
         "steps": int(r.stats["steps"]),
+        "steady_period": int(r.steady_info.period) if r.steady_info is not None else 0,
         "error": "",
     }
     return row
@@ -282,7 +300,8 @@ def _features(r, analyse_cycles: float) -> dict[str, Any]:
 
 def _failed_row(message: str) -> dict[str, Any]:
     row: dict[str, Any] = {k: math.nan for k in FEATURES}
-    row.update(scenario=-1, period=0, periodicity="failed", steps=0, error=message)
+    row.update(scenario=-1, period=0, periodicity="failed", steps=0, steady_period=0,
+               error=message)
     return row
 
 
@@ -290,19 +309,24 @@ def run_point(spec: PointSpec) -> list[dict[str, Any]]:
     """Run one row of a grid (every flow of ``spec``) and return one feature dict per flow.
 
     In continuation mode each flow starts from the previous flow's final state, as in a field
-    flow sweep; otherwise every flow starts from the static state. A failed run gives a row
+    flow sweep, and settles ``spec.settle`` cycles before its window; otherwise every flow
+    starts from the static state. A failed run gives a row
     with ``error`` set (and, in continuation mode, the next flow restarts from rest).
     """
     s = spec.settings
     base = {**s.preset.params, **s.overrides}
     settings = s.with_changes(overrides=design_overrides(base, dict(spec.values), spec.gap_via))
     record, summary_rate = DETAILS[spec.detail]
+    warm = settings
+    if spec.continuation and spec.settle is not None:
+        warm = settings.with_changes(cycles=settings.analyse_cycles + spec.settle)
     rows: list[dict[str, Any]] = []
     state = None
     for q in spec.flows:
         try:
-            r = settings.run(q, record=record, output_rate_hz=_IMPACT_RATE_HZ,
-                             summary_rate_hz=summary_rate, initial_state=state)
+            r = (settings if state is None else warm).run(
+                q, record=record, output_rate_hz=_IMPACT_RATE_HZ, summary_rate_hz=summary_rate,
+                initial_state=state)
         except (SolverError, ValueError) as exc:
             rows.append(_failed_row(str(exc)))
             state = None
@@ -357,6 +381,7 @@ class _Grid:
     gap_via: str = "spring"
     detail: str = "full"
     refine: Refinement | None = None
+    settle: float | None = None
 
     @property
     def continuation(self) -> bool:
@@ -391,7 +416,7 @@ class _Grid:
                 sub = tuple(float(q) for q in self.flows[start:start + self.piece])
                 out.append(_Chunk(idx, start, PointSpec(self.settings, sub, values,
                                                         self.continuation, self.gap_via,
-                                                        self.detail)))
+                                                        self.detail, self.settle)))
         return out
 
     def point_chunks(self, points: Sequence[tuple[int, ...]]) -> list[_Chunk]:
@@ -422,6 +447,7 @@ class _Grid:
                 "axes": [[k, v.tolist()] for k, v in self.axes.items()],
                 "mode": self.mode, "gap_via": self.gap_via, "detail": self.detail,
                 "chunk_flows": self.piece,
+                **({"settle": self.settle} if self.settle is not None else {}),
                 **({"refine": self.refine.as_dict()} if self.refine is not None else {})}
 
     @cached_property
@@ -764,24 +790,7 @@ def _make_executor(
     workers: int | None, scheduler: str | None
 ) -> tuple[Executor, Callable[[], None], int]:
     """An executor, its closer and how many chunks to keep in flight on it."""
-    if scheduler:
-        from dask.distributed import Client
-
-        client = Client(scheduler)
-        ex = client.get_executor()
-
-        def close() -> None:
-            ex.shutdown(wait=False)
-            client.close()
-
-        return ex, close, max(4, 2 * sum(client.nthreads().values()))
-    n = workers or os.cpu_count() or 1
-    ex = ThreadPoolExecutor(max_workers=n)
-
-    def close_threads() -> None:
-        ex.shutdown(wait=False, cancel_futures=True)
-
-    return ex, close_threads, 2 * n
+    return dask_pool(scheduler) if scheduler else local_threads(workers)
 
 
 @dataclass(eq=False)
@@ -964,9 +973,11 @@ def _probe(settings: RunSettings, flows: np.ndarray, axes: dict[str, np.ndarray]
 def _make_grid(settings: RunSettings, flows: Sequence[float] | np.ndarray,
                axes: Mapping[str, Sequence[float] | np.ndarray] | None, *, mode: str,
                gap_via: str, detail: str, workers: int | None, portable: bool,
-               refine: Refinement | bool | None = None) -> _Grid:
+               refine: Refinement | bool | None = None,
+               settle_cycles: float | None = None) -> _Grid:
     """Step 1: check every input and describe the computation (ValueError naming a bad one)."""
     _check_options(mode, gap_via, detail, workers)
+    settle = _settle(settings, mode, settle_cycles)
     if refine is True:
         refine = Refinement()
     elif refine is False:
@@ -981,7 +992,22 @@ def _make_grid(settings: RunSettings, flows: Sequence[float] | np.ndarray,
         raise ValueError("extra forces given as core objects cannot be stored or sent to Dask: "
                          "pass them as ExtraSpec or mappings with 'kind'")
     _probe(settings, flows_arr, axes_arr, gap_via)
-    return _Grid(settings, flows_arr, axes_arr, mode, gap_via, detail, refine)
+    return _Grid(settings, flows_arr, axes_arr, mode, gap_via, detail, refine, settle)
+
+
+def _settle(settings: RunSettings, mode: str, settle_cycles: float | None) -> float | None:
+    """The settling of a continued point (None: independent mode, or no shorter than the
+    settings' own)."""
+    if mode != "continuation":
+        if settle_cycles is not None:
+            raise ValueError("settle_cycles applies to mode = 'continuation' only")
+        return None
+    own = float(settings.cycles - settings.analyse_cycles)
+    value = CONTINUATION_SETTLE_CYCLES if settle_cycles is None else settle_cycles
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value) or value < 0:
+        raise ValueError(f"settle_cycles = {settle_cycles!r} must be a number >= 0 (cycles)")
+    return float(value) if value < own else None
 
 
 # --- the dataset -------------------------------------------------------------------------------
@@ -1056,7 +1082,8 @@ def _assemble(grid: _Grid, chunks: Sequence[_Chunk], done: Mapping[str, list[dic
         gap_via=grid.gap_via, extras=json.dumps(s["extras"]), rtol=s["rtol"],
         method=s["method"], detail=grid.detail, wob_klbf=s["wob_klbf"],
         m_ref_kg=grid.settings.preset.m_ref_kg, vadsim_version=_version,
-        grid_hash=grid.hash[:16],
+        grid_hash=grid.hash[:16], steady=s["steady"],
+        **({"settle_cycles": grid.settle} if grid.settle is not None else {}),
     )
     if grid.refine is not None:
         ds["simulated"] = (dims, run, {"description": "the point was run (else filled from "
@@ -1141,6 +1168,7 @@ def sweep(
     store: str | os.PathLike[str] | None = None,
     progress: bool = True,
     refine: Refinement | bool | None = None,
+    settle_cycles: float | None = None,
 ) -> xr.Dataset:
     """Run the model over flow rates and (optionally) one or more parameter axes.
 
@@ -1164,7 +1192,8 @@ def sweep(
         Run length and steady window, in excitation cycles (default 400 and 200).
     mode
         ``"independent"``: every point starts from the static state. ``"continuation"``:
-        along each flow row, a point starts from the previous flow's final state.
+        along each flow row, a point starts from the previous flow's final state and settles
+        ``settle_cycles`` before its window (the row's first flow starts from rest).
     gap_via
         Which length realises a gap change.
     rtol, method
@@ -1192,6 +1221,10 @@ def sweep(
         filled from the agreeing cell around them (labels from its nearest corner, J* and
         peaks interpolated, never across a boundary). The dataset gains ``simulated``
         (which points were run). Independent mode only; a store resumes it level by level.
+    settle_cycles
+        Continuation mode: the cycles a continued point settles before its analysed window
+        (default :data:`CONTINUATION_SETTLE_CYCLES`; the settings' own ``cycles -
+        analyse_cycles`` if that is shorter).
 
     Returns
     -------
@@ -1205,7 +1238,7 @@ def sweep(
         analyse_cycles=analyse_cycles, rtol=rtol, method=method))
     grid = _make_grid(run, flows, axes, mode=mode, gap_via=gap_via, detail=detail,
                       workers=workers, portable=store is not None or bool(scheduler),
-                      refine=refine)
+                      refine=refine, settle_cycles=settle_cycles)
     if grid.refine is not None:
         opened = _Store.open(store, grid) if store is not None else None
         bar = _progress_bar(grid, [], progress)
