@@ -27,6 +27,7 @@ from vadsim.plots.style import (
     check_path,
     feature_label,
     finish,
+    fit_titles,
     new_axes,
     run_length,
     styled,
@@ -219,7 +220,7 @@ def validation_peaks(result: ValidationResult) -> Figure:
     fig.suptitle(f"{result.campaign.name}\naxial vibration peaks vs flow, preset "
                  f"{result.preset.name}; {_conditions(result.campaign, result.settings)}",
                  fontsize=10)
-    return fig
+    return fit_titles(fig)
 
 
 def validation_mismatch(result: ValidationResult) -> Figure | None:
@@ -233,7 +234,7 @@ def validation_mismatch(result: ValidationResult) -> Figure | None:
     table = pd.concat([res.rename(columns=feature_label),
                        full.rename(columns=lambda k: f"{feature_label(k)} [full res.]")], axis=1)
     table.index = _event_labels(result.campaign, list(table.index))
-    return mismatch_heatmap(table, title=f"{result.campaign.name}: (model - recorded) / spread\n"
+    return mismatch_heatmap(table, title=f"{result.campaign.name}\n(model - recorded) / spread; "
                             f"{_conditions(result.campaign, result.settings)}")
 
 
@@ -283,7 +284,7 @@ def heldout_features_figure(diag: Diagnosis, n_features: int = 6) -> Figure | No
     fig.suptitle("Held-out predictions (leave one flow out), features with the largest "
                  f"base-model error\n{diag.campaign.name}: "
                  f"{_conditions(diag.campaign, diag.settings)}", fontsize=10)
-    return fig
+    return fit_titles(fig)
 
 
 def mismatch_base_figure(diag: Diagnosis) -> Figure:
