@@ -198,6 +198,8 @@ def _pick(table: Table, given: str | None, names: Sequence[str], role: str,
         if len(stems) == 1:  # "AccZ_bit" names "AccZ_bit [m/s^2]"
             return stems[0]
         close = [c for c in table.columns if _stem(c).lower() == given.strip().lower()]
+        if table.format == "LAS" and len(close) == 1:  # LAS mnemonics ignore case
+            return close[0]
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise CampaignError(f"{table.where}: no column {given!r} for {role} ({option}){hint}; "
                             f"the columns are {table.listing()}")
