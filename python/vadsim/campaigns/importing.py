@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -256,9 +257,9 @@ def _seconds(values: np.ndarray, table: Table, column: str, stated: str | None,
     raw = table.units.get(column)
     if stated is None and canonical_unit(raw, "time") is None and \
             split_unit(column, "time")[1] is None:
-        return values.astype(np.float64), "s, assumed"
+        return values.astype(np.float64), "s (assumed)"
     unit, how = _unit(table, column, "time", stated, option)
-    return values * unit_factor(unit, "time"), f"{unit}, {how}"
+    return values * unit_factor(unit, "time"), f"{unit} ({how})"
 
 
 # --------------------------------------------------------------------------------------------
@@ -412,8 +413,8 @@ def read_surface_log(path: str | os.PathLike[str], columns: Mapping[str, str] | 
         raise CampaignError(f"{table.where}: fewer than 3 rows")
     return SurfaceLog(Path(path), t, data[chosen["flow"]] * unit_factor(flow_u, "flow"),
                       data[chosen["wob"]] * unit_factor(wob_u, "wob"), chosen,
-                      {"time": t_how, "flow": f"{flow_u}, {flow_how}",
-                       "wob": f"{wob_u}, {wob_how}"})
+                      {"time": t_how, "flow": f"{flow_u} ({flow_how})",
+                       "wob": f"{wob_u} ({wob_how})"})
 
 
 # --------------------------------------------------------------------------------------------
@@ -618,10 +619,12 @@ def _source_lines(result: ImportResult) -> list[str]:
                      + (f", low-pass {sen.lowpass_hz:g} Hz" if sen.lowpass_hz else ""))
     period = float(np.median(np.diff(log.time_s)))
     lines += [f"surface log: {log.file}",
-              f"  {log.time_s.size} rows every {period:g} s; time <- {log.columns['time']!r} "
-              f"({log.units['time']}), flow <- {log.columns['flow']!r} ({log.units['flow']}), "
-              f"WOB <- {log.columns['wob']!r} ({log.units['wob']})",
-              result.alignment.describe()]
+              f"  {log.time_s.size} rows every {period:g} s, "
+              f"{_duration(float(log.time_s[-1] - log.time_s[0]))}",
+              f"  time <- {log.columns['time']!r} in {log.units['time']}",
+              f"  flow <- {log.columns['flow']!r} in {log.units['flow']}, written in gal/min",
+              f"  WOB <- {log.columns['wob']!r} in {log.units['wob']}, written in klbf",
+              *textwrap.wrap(result.alignment.describe(), 96)]
     return lines
 
 
@@ -629,7 +632,7 @@ def _summary_lines(result: ImportResult, figure: str | None) -> list[str]:
     camp = result.campaign
     where = f" -> {result.folder}" if result.folder else ""
     lines = [f"# Import: {camp.name}{where}", "", "```", *_source_lines(result), "```", "",
-             f"Steady: {result.rules.describe()}.", "",
+             *textwrap.wrap(f"Steady: {result.rules.describe()}.", 96), "",
              f"## {len(camp.events)} events", "", "```",
              f"  {'event':<6} {'record clock s':>17} {'s':>6} {'flow gal/min':>12} "
              f"{'WOB klbf':>8}  clipped samples"]
