@@ -598,10 +598,11 @@ def _duration(seconds: float) -> str:
 
 
 def _stretch_lines(result: ImportResult) -> list[str]:
-    out = [f"  {'':<4} {'surface clock s':>17}  {'flow gal/min':>12}  {'WOB klbf':>8}  reason"]
+    out = ["  (surface clock)", f"  {'':<4} {'from s':>8} {'to s':>8}  {'flow gal/min':>12}  "
+           f"{'WOB klbf':>8}  reason"]
     refused = [st for st in result.stretches if not st.accepted]
     for k, st in enumerate(refused, start=1):
-        out.append(f"  {'r' + str(k):<4} {st.start_s:8.1f}-{st.end_s:<8.1f}  "
+        out.append(f"  {'r' + str(k):<4} {st.start_s:8.1f} {st.end_s:8.1f}  "
                    f"{st.flow_gpm:12.1f}  {st.wob_klbf:8.2f}  {st.reason}")
     return out
 
@@ -634,13 +635,14 @@ def _summary_lines(result: ImportResult, figure: str | None) -> list[str]:
     lines = [f"# Import: {camp.name}{where}", "", "```", *_source_lines(result), "```", "",
              *textwrap.wrap(f"Steady: {result.rules.describe()}.", 96), "",
              f"## {len(camp.events)} events", "", "```",
-             f"  {'event':<6} {'record clock s':>17} {'s':>6} {'flow gal/min':>12} "
+             "  (record clock)",
+             f"  {'event':<6} {'from s':>8} {'to s':>8} {'duration s':>10} {'flow gal/min':>12} "
              f"{'WOB klbf':>8}  clipped samples"]
     stretch_of = {st.event_id: st for st in result.stretches if st.accepted}
     for ev in camp.events:
         lo, hi = stretch_of[ev.id].kept_s or (math.nan, math.nan)
         clips = ", ".join(f"{s} {int(np.count_nonzero(m))}" for s, m in ev.clipped.items())
-        lines.append(f"  {ev.id:<6} {lo:8.1f}-{hi:<8.1f} {hi - lo:6.1f} {ev.flow_gpm:12.1f} "
+        lines.append(f"  {ev.id:<6} {lo:8.1f} {hi:8.1f} {hi - lo:10.1f} {ev.flow_gpm:12.1f} "
                      f"{ev.wob_klbf:8.2f}  {clips}")
     refused = [st for st in result.stretches if not st.accepted]
     lines += ["```", "", f"## {len(refused)} stretch{'es' if len(refused) != 1 else ''} "
@@ -653,5 +655,6 @@ def _summary_lines(result: ImportResult, figure: str | None) -> list[str]:
     lines.append("```")
     if figure:
         lines += ["", f"![record, surface log and the chosen stretches]({figure})"]
-    lines += ["", "Check it: `vadsim campaign show FOLDER`; then `vadsim validate FOLDER`."]
+    folder = result.folder or "FOLDER"
+    lines += ["", f"Check it: `vadsim campaign show {folder}`; then `vadsim validate {folder}`."]
     return lines
