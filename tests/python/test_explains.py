@@ -124,3 +124,24 @@ def test_validation_figure_titles_fit_their_figures():
         assert _titles_inside(fig) == []
     # the campaign's name is still there, whole, only broken over lines
     assert "well A-7" in peaks._suptitle.get_text()
+
+
+def test_a_wide_heat_map_stays_legible():
+    """A diagnosis' base-model heat map has 80+ features (the gallery's thumbnail was that
+    map squashed): no cell numbers printed over each other, no labels over each other."""
+    import pandas as pd
+
+    rng = np.random.default_rng(0)
+    cols = [f"x1 fold {i:02d} (g)" for i in range(87)]
+    table = pd.DataFrame(rng.normal(0, 2, (6, 87)), columns=cols,
+                         index=[f"e0{i} ({200 + 90 * i} gal/min)" for i in range(1, 7)])
+    fig = plots.mismatch_heatmap(table)
+    ax = fig.axes[0]
+    assert len(ax.texts) == 0               # the colours carry it; numbers would overlap
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    boxes = [t.get_window_extent(canvas.get_renderer()) for t in ax.get_xticklabels()]
+    assert all(a.x1 <= b.x0 + 0.5 for a, b in zip(boxes, boxes[1:], strict=False))
+    assert _titles_inside(fig) == []
+    # a narrow table keeps its numbers
+    assert len(plots.mismatch_heatmap(table.iloc[:, :5]).axes[0].texts) == 30
