@@ -308,8 +308,10 @@ def test_cli_import_then_show(test3, tmp_path, capsys):
             "x5=AccZ_mwd", "--quiet"]
     assert main(argv) == 0
     printed = capsys.readouterr().out
-    assert "## 3 events" in printed and "clock offset" in printed
-    assert (out / "import.md").is_file() and (out / "import.png").stat().st_size > 10_000
+    assert "\n3 events\n" in printed and "clock offset" in printed and "```" not in printed
+    markdown = (out / "import.md").read_text()
+    assert "## 3 events" in markdown and "![record, surface log" in markdown
+    assert (out / "import.png").stat().st_size > 10_000
     camp = load_campaign(out)
     assert len(camp.events) == 3
     assert main(["campaign", "show", str(out)]) == 0

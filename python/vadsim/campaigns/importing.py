@@ -160,9 +160,15 @@ class ImportResult:
     folder: Path | None = None
     clipped: dict[str, tuple[int, int]] = field(default_factory=dict)
 
-    def summary(self, figure: str | None = None) -> str:
-        """What was imported, as Markdown a terminal shows as plain text."""
-        return "\n".join(_summary_lines(self, figure))
+    def summary(self, figure: str | None = None, markdown: bool = False) -> str:
+        """What was imported: plain text for a terminal, or the Markdown of ``import.md``
+        (``markdown=True``; ``figure`` is the image it links)."""
+        lines = _summary_lines(self, figure)
+        if markdown:
+            return "\n".join(lines)
+        plain = [line.lstrip("#").lstrip() if line.startswith("#") else line
+                 for line in lines if line != "```" and not line.startswith("![")]
+        return "\n".join(plain)
 
     def __repr__(self) -> str:
         return (f"ImportResult({self.campaign.name!r}: {len(self.campaign.events)} events, "
@@ -575,7 +581,8 @@ def write_import(result: ImportResult, out: str | os.PathLike[str],
     folder = save_campaign(result.campaign, Path(out))
     result.folder = folder
     result.campaign.root = folder
-    (folder / IMPORT_SUMMARY).write_text(result.summary(figure) + "\n", encoding="utf-8")
+    (folder / IMPORT_SUMMARY).write_text(result.summary(figure, markdown=True) + "\n",
+                                         encoding="utf-8")
     return folder
 
 

@@ -142,7 +142,7 @@ def _cmd_import(args: argparse.Namespace) -> int:
         figure = "import.png"
         import_figure(result, path=f"{args.out}/{figure}")
     folder = write_import(result, args.out, figure)
-    print(result.summary(figure))
+    print(result.summary())
     print(f"campaign: {folder} (summary {folder / IMPORT_SUMMARY}"
           + (f", figure {folder / figure})" if figure else ")"))
     return 0
