@@ -266,6 +266,9 @@ def test_size_limits_name_the_file_and_the_limit(test3, tmp_path, monkeypatch):
                                             r"MAX_FILE_BYTES"):
         _import(test3, record, surface)
     monkeypatch.undo()
+    with pytest.raises(CampaignError, match=r"name: 201 characters, more than the import's "
+                                            r"limit of 200"):
+        _import(test3, record, surface, name="n" * 201)
     (tmp_path / "long.csv").write_text("time,a [g]\n" + "1," * 40_000 + "\n")
     with pytest.raises(CampaignError, match=r"long.csv: a line is longer than the import's "
                                             r"limit of 65536 characters"):

@@ -64,6 +64,9 @@ IMPORT_SUMMARY = "import.md"
 #: Largest jitter of a record's time column, in sample periods, before it is refused.
 MAX_JITTER = 0.25
 
+#: Longest campaign name an import accepts (it goes into every figure title and report).
+MAX_NAME_CHARS = 200
+
 #: How far the rates of the record's pieces (files, or runs between gaps) may differ.
 RATE_AGREEMENT = 1e-3
 
@@ -541,6 +544,9 @@ def import_campaign(
     """
     if bit not in KNOWN_BITS:
         raise CampaignError(f"bit {bit!r}: one of {', '.join(KNOWN_BITS)}")
+    if name is not None and len(name) > MAX_NAME_CHARS:
+        raise CampaignError(f"name: {len(name)} characters, more than the import's limit of "
+                            f"{MAX_NAME_CHARS} (vadsim.campaigns.importing.MAX_NAME_CHARS)")
     paths = [record] if isinstance(record, str | os.PathLike) else list(record)
     rules = rules or StretchRules()
     say = reporter(progress)
