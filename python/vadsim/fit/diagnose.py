@@ -46,6 +46,7 @@ import contextlib
 import math
 import multiprocessing as mp
 import os
+import textwrap
 import time
 from collections.abc import Callable, Collection, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -296,16 +297,18 @@ class Diagnosis:
     def summary(self) -> str:
         """A few lines for a terminal."""
         lines = [f"{self.campaign.name}: {len(self.campaign.events)} events; the model was "
-                 f"evaluated {self.n_evals} times (one event simulated and measured for one "
-                 f"candidate at one parameter point) in {self.elapsed_s:.0f} s"]
+                 f"evaluated {self.n_evals} times in {self.elapsed_s:.0f} s",
+                 "  (an evaluation: one event simulated and measured, for one candidate at one "
+                 "parameter point)"]
         if self.located:
             lines.append("located: " + "; ".join(m.describe() for m in self.located[:4]))
         else:
-            lines.append("located: no single feature is offset or trends with flow beyond the "
-                         "threshold (1.5 spreads, significant)"
-                         + (": the effect below was chosen on the held-out fit of all the "
-                            "features together, where small shifts of many add up"
-                            if self.chosen else ""))
+            lines += textwrap.wrap(
+                "located: no single feature is offset or trends with flow beyond the threshold "
+                "(1.5 spreads, significant)"
+                + (": the effect below was chosen on the held-out fit of all the features "
+                   "together, where small shifts of many add up" if self.chosen else ""),
+                96, subsequent_indent="  ")
         nuis = ", ".join(f"{k} = {fmt_value(v)}" for k, v in self.baseline.nuisance.items())
         which = "nominal" if self.none_fit is self.uncalibrated else "calibrated"
         lines.append(f"base model: held-out RMS {self.uncalibrated.heldout_rms:.3f} nominal, "

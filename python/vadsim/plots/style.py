@@ -16,6 +16,7 @@ import math
 import os
 import re
 import textwrap
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
@@ -130,7 +131,9 @@ def fit_titles(fig: Figure) -> Figure:
         original = text.get_text()
         width = fig.get_figwidth()
         for _ in range(12):
-            canvas.draw()
+            with warnings.catch_warnings():  # a tiny figure's layout warns again when drawn
+                warnings.simplefilter("ignore", UserWarning)
+                canvas.draw()
             box = text.get_window_extent(canvas.get_renderer())
             if box.x0 >= -0.5 and box.x1 <= fig.bbox.width + 0.5:
                 break
