@@ -25,5 +25,10 @@ fig = plots.z_vs_flow(ds)
 thesis.compare_regimes(ds)
 
 # %%
+# The same in words: how many bands are met, why one can be missing, and which preset is the
+# one chosen to meet them (``7in-cde-thesis``; this one keeps MODEL.md's constants).
+print(thesis.regimes_summary(ds))
+
+# %%
 # The impulse per second reaching the bit, J*, over the same flows:
 fig_j = plots.j_vs_flow(ds)

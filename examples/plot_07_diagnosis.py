@@ -23,6 +23,8 @@ d = diagnose.diagnose(camp, candidates=offered, phases=4 if FULL else 2, progres
                       **run)
 print(d.summary())
 
+# sphinx_gallery_thumbnail_number = 2
+
 # %%
 # Where the base model was off: its held-out residuals, event by feature. The effect grows
 # with flow, so the low flows are nearly untouched.

@@ -4,6 +4,7 @@ base model wrote gives "none")."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -467,6 +468,23 @@ def hydraulic_campaign():
 @pytest.fixture(scope="module")
 def hydraulic_diagnosis(hydraulic_campaign):
     return _diagnose(hydraulic_campaign, candidates=TRIED)
+
+
+def test_summary_explains_its_terms(hydraulic_diagnosis):
+    d = hydraulic_diagnosis
+    text = d.summary()
+    first, second = text.splitlines()[:2]
+    assert f"the model was evaluated {d.n_evals} times in" in first
+    assert "(an evaluation: one event simulated and measured" in second
+    for term in ("LOFO leaves one flow out", "block the highest flows", "wob_scale (a factor",
+                 "theta0 (the excitation phase at rest", "k: constants fitted",
+                 "score: held-out AICc, lower is better", "beat\n'none' by 10"):
+        assert term in text, term
+    # nothing located yet an effect chosen: the summary says why that is not a contradiction
+    quiet = dataclasses.replace(d, located=[])
+    assert quiet.chosen is not None
+    assert ("the effect below was chosen on the held-out fit of all the features together"
+            in " ".join(quiet.summary().split()))
 
 
 def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_diagnosis):

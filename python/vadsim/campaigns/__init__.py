@@ -1,5 +1,6 @@
 """Campaigns of recordings: the format (RECORDINGS.md), reading, writing, the dissertation's
-field tables, and synthetic campaigns written by the model.
+field tables, synthetic campaigns written by the model, and imports of a continuous downhole
+record with a surface log (``import_campaign``; ``flowstep`` writes a synthetic one).
 
 ``vadsim.recordings`` (the old path) is this package.
 """
@@ -14,8 +15,11 @@ from vadsim.campaigns.format import (
     Event,
     Sensor,
 )
+from vadsim.campaigns.importing import ImportResult, import_campaign
 from vadsim.campaigns.reading import load_campaign
 from vadsim.campaigns.resolve import campaign_preset, load_any_campaign
+from vadsim.campaigns.show import campaign_text
+from vadsim.campaigns.stretches import StretchRules
 from vadsim.campaigns.thesis import THESIS_CAMPAIGNS, thesis_campaigns
 from vadsim.campaigns.writing import save_campaign
 
@@ -28,8 +32,12 @@ __all__ = [
     "CampaignError",
     "ClippedSamplesWarning",
     "Event",
+    "ImportResult",
     "Sensor",
+    "StretchRules",
     "campaign_preset",
+    "campaign_text",
+    "import_campaign",
     "load_any_campaign",
     "load_campaign",
     "save_campaign",

@@ -7,7 +7,8 @@ imports cli.
 
 Layout: ``common`` holds the options several commands share (as argparse parent parsers) and
 the small parsing helpers; ``run`` (run, presets, plot), ``studies`` (sweep, map, design,
-thesis) and ``campaigns`` (validate, calibrate, diagnose, blind) each add their sub-commands
+thesis), ``campaigns`` (validate, calibrate, diagnose, blind) and ``imports`` (campaign
+import, campaign show) each add their sub-commands
 with ``add_parsers(subparsers, parents)`` and hold their handlers.
 """
 
@@ -18,7 +19,7 @@ import sys
 from collections.abc import Sequence
 
 from vadsim import __version__
-from vadsim.cli import campaigns, run, studies
+from vadsim.cli import campaigns, imports, run, studies
 from vadsim.cli.common import make_parents
 from vadsim.model.simulate import SolverError
 
@@ -35,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"vadsim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     parents = make_parents()
-    for group in (run, studies, campaigns):
+    for group in (run, studies, campaigns, imports):
         group.add_parsers(sub, parents)
     return parser
 

@@ -28,7 +28,8 @@ from vadsim.signals.labels import regime_name
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["FlowsThenPreset", "add_parsers"]
+__all__ = ["PRESETS_FOOTER", "PRESET_ROLES", "RUN_TABLE_LEGEND", "FlowsThenPreset",
+           "add_parsers"]
 
 
 class FlowsThenPreset(argparse.Action):
@@ -172,7 +173,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
           f"(last {args.analyse:g} analysed)")
     _print_rows(rows)
     print(f"{len(rows)} runs in {elapsed:.2f} s on {workers} thread(s)")
+    print(RUN_TABLE_LEGEND)
     return 0
+
+
+RUN_TABLE_LEGEND = """\
+Q: flow rate; f: excitation frequency (alpha Q / 2 pi). Z1-Z4: impacts per excitation cycle at
+the recoil spring (1), the impact face (2), the off-bottom (3) and on-bottom (4) shoulders;
+sc: the impact scenario they make (dissertation Table 4.2, named under regime). x1 / x5 peak:
+mean of the largest |acceleration| in each 200 ms window at the bit sub (x1) and above the
+motor (x5), g, full resolution; +-: the std of the x1 peaks. J*: impulse per second, the
+mean of max(F_I, 0) at the impact face, per kg of the reference mass m* (N/kg); x m* = kN."""
+"""What each column of ``vadsim run``'s table means, printed under it."""
 
 
 def _print_rows(rows: list[dict[str, Any]]) -> None:
@@ -186,21 +198,53 @@ def _print_rows(rows: list[dict[str, Any]]) -> None:
               f"{r.get('j_pos_kN', float('nan')):7.3f}  {r['regime']}")
 
 
+PRESET_ROLES: dict[str, str] = {
+    "7in-cde": "the dissertation's 7in tool, CDE bit; MODEL.md's constants",
+    "7in-rc": "the same tool with the RC bit (heavier bit mass m1)",
+    "9.5in-pdc": "the 9.5in tool, PDC bit; l0, wob calibrated on its simulations",
+    "7in-cde-cal": "7in-cde with l0, wob fitted to the simulated CDE peaks",
+    "7in-rc-cal": "7in-rc with 7in-cde-cal's l0, wob",
+    "7in-cde-thesis": "7in-cde at theta0 = 2.475 rad: meets chapter 4's five regime bands",
+    "7in-rc-thesis": "7in-rc at 7in-cde-thesis' theta0",
+}
+"""One line per preset: what it is for (``vadsim presets``)."""
+
+PRESETS_FOOTER = """\
+wob is the weight on bit per kg of the reference mass m* (N/kg; m* = WOB / wob); theta0 is the
+excitation phase at rest (mod pi), gap the impact-face gap as a fraction of the length unit l0.
+-cal: the length unit l0 and wob calibrated against the dissertation's simulated peaks and
+regime edges (docs/CALIBRATION.md). -thesis: the excitation phase at rest theta0 that the
+published lengths cannot fix, chosen so that the regime bands of the dissertation's chapter 4
+are met (docs/REPRODUCTION.md); the plain presets keep MODEL.md's convention, so their regime
+boundaries differ from the published ones. vadsim presets NAME lists every parameter."""
+
+
 def _cmd_presets(args: argparse.Namespace) -> int:
     if args.name:
         p = get_preset(args.name)
         print(f"{p.name}: {p.tool} tool, {p.bit} bit, WOB {p.wob_klbf:g} klbf, "
               f"m* = {p.m_ref_kg:.2f} kg, law {p.law}\n{p.note}")
+        print(f"Values are per unit reference mass m* = {p.m_ref_kg:.2f} kg: masses in m*, "
+              f"stiffnesses in N/m per kg of m*\n(N/m/kg; x m* for N/m), dampings in N s/m per "
+              f"kg, forces in N/kg. Lengths in l0 = {p.params['l0']:g} m.")
         for name, unit, meaning, _ in param_table():
             value = p.params.get(name, math.nan)
             shown = "unset" if math.isnan(value) else f"{value:.6g}"
             print(f"  {name:>9} = {shown:<12} {unit:<18} {meaning}")
         print(f"  (theta0 = {p.theta0 % math.pi:.4f} rad mod pi; gap = {p.gap:.6g} l0)")
         return 0
-    for p in PRESETS.values():
-        print(f"{p.name:<10} {p.tool:>6} {p.bit:<4} WOB {p.wob_klbf:g} klbf  "
-              f"l0 {p.params['l0']:g} m  wob {p.params['wob']:g} N/kg  "
-              f"theta0 {p.theta0 % math.pi:.3f} rad (mod pi)  gap {p.gap:.4g} l0")
+    head = ("preset", "tool", "bit", "WOB klbf", "l0 m", "wob N/kg", "theta0 rad", "gap l0")
+    rows = [(p.name, p.tool, p.bit, f"{p.wob_klbf:g}", f"{p.params['l0']:g}",
+             f"{p.params['wob']:g}", f"{p.theta0 % math.pi:.3f}", f"{p.gap:.3g}")
+            for p in PRESETS.values()]
+    widths = [max(len(r[i]) for r in [head, *rows]) for i in range(len(head))]
+    for row in [head, *rows]:
+        print("  ".join(c.ljust(w) if i < 3 else c.rjust(w)
+                        for i, (c, w) in enumerate(zip(row, widths, strict=True))))
+    print("what each is for:")
+    for name in PRESETS:
+        print(f"  {name:<{widths[0]}}  {PRESET_ROLES.get(name, '')}")
+    print(PRESETS_FOOTER)
     return 0
 
 

@@ -45,6 +45,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import textwrap
 import time
 from collections.abc import Callable, Collection, Mapping, Sequence
 from concurrent.futures import as_completed
@@ -295,12 +296,19 @@ class Diagnosis:
 
     def summary(self) -> str:
         """A few lines for a terminal."""
-        lines = [f"{self.campaign.name}: {len(self.campaign.events)} events, "
-                 f"{self.n_evals} evaluations in {self.elapsed_s:.0f} s"]
+        lines = [f"{self.campaign.name}: {len(self.campaign.events)} events; the model was "
+                 f"evaluated {self.n_evals} times in {self.elapsed_s:.0f} s",
+                 "  (an evaluation: one event simulated and measured, for one candidate at one "
+                 "parameter point)"]
         if self.located:
             lines.append("located: " + "; ".join(m.describe() for m in self.located[:4]))
         else:
-            lines.append("located: no feature is offset or trends with flow beyond the threshold")
+            lines += textwrap.wrap(
+                "located: no single feature is offset or trends with flow beyond the threshold "
+                "(1.5 spreads, significant)"
+                + (": the effect below was chosen on the held-out fit of all the features "
+                   "together, where small shifts of many add up" if self.chosen else ""),
+                96, subsequent_indent="  ")
         nuis = ", ".join(f"{k} = {fmt_value(v)}" for k, v in self.baseline.nuisance.items())
         which = "nominal" if self.none_fit is self.uncalibrated else "calibrated"
         lines.append(f"base model: held-out RMS {self.uncalibrated.heldout_rms:.3f} nominal, "
@@ -335,7 +343,9 @@ class Diagnosis:
             p = self.prediction
             lines.append(f"prediction of {p['campaign']}: RMS {p['error_before']:.2f} -> "
                          f"{p['error_after']:.2f}")
-        return "\n".join(lines)
+        legend = SUMMARY_LEGEND.format(min_delta=self.settings.get("min_delta", 10.0),
+                                       min_reduction=self.settings.get("min_reduction", 0.3))
+        return "\n".join([*lines, legend])
 
     def verdict_text(self) -> str:
         """One sentence: what is missing, or that nothing is, or what is left unexplained."""
@@ -355,6 +365,17 @@ class Diagnosis:
                           for u in self.unexplained[:4])
         return (f"unexplained mismatch at {where or 'several events'}: {what}; held-out RMS "
                 f"{f:.2f} > {self.settings['max_rms']:g}")
+
+
+SUMMARY_LEGEND = """\
+How to read it: a residual is (model - recorded) / the recording's own spread. Held-out RMS is
+their root mean square on events left out of the fit: LOFO leaves one flow out at a time,
+block the highest flows; near 1 or below, the model predicts within the recordings' scatter.
+wob_scale (a factor on the reported WOB) and theta0 (the excitation phase at rest, rad) are
+the base model's uncertain constants, refitted with every candidate. k: constants fitted
+(the candidate's and those); score: held-out AICc, lower is better: an effect must beat
+'none' by {min_delta:g} and cut the held-out RMS by {min_reduction:.0%} (docs/DIAGNOSIS.md)."""
+"""Printed under :meth:`Diagnosis.summary`: the terms it uses (``settings`` fill it in)."""
 
 
 def none_model(calibrated: HypothesisFit, nominal: HypothesisFit) -> HypothesisFit:

@@ -19,6 +19,7 @@ sets it. ``theta0 = nan`` returns to the dissertation's parameterisation through
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 from collections.abc import Mapping
@@ -313,15 +314,25 @@ def load_preset_file(path: str | os.PathLike[str]) -> Preset:
                   law=law, note=str(doc.get("note", f"from {path}")))
 
 
+def _did_you_mean(key: str, names: set[str]) -> str:
+    """`` (did you mean 'kS'?)`` for the names closest to ``key`` (a different case, a typo),
+    or ``""``."""
+    same = [n for n in sorted(names) if n.lower() == key.lower()]
+    close = same or difflib.get_close_matches(key, sorted(names | set(PARAM_ALIASES)), n=3,
+                                              cutoff=0.6)
+    if not close:
+        return ""
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)"
+
+
 def _checked_overrides(overrides: Mapping[str, Any]) -> dict[str, float]:
     names = set(param_names())
     out: dict[str, float] = {}
     for key, value in overrides.items():
         key = canonical_name(key)
         if key not in names:
-            close = [n for n in names if n.lower() == str(key).lower()]
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValueError(f"unknown parameter {key!r}{hint}")
+            raise ValueError(f"unknown parameter {key!r}{_did_you_mean(str(key), names)}; "
+                             f"vadsim.param_names() (vadsim presets NAME) lists them")
         if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a mistake, not 1
             raise ValueError(f"parameter {key} = {value!r} is not a number")
         try:

@@ -322,7 +322,18 @@ class SimulationResult:
         run has no m* (J* is per unit m*, N/kg)."""
         return self.impulse_pos * self.m_ref_kg / 1000.0 if self.m_ref_kg else math.nan
 
-    def _repr_html_(self) -> str:
+    def __repr__(self) -> str:
+        # The dataclass repr printed every array (249 lines in a plain REPL); a notebook
+        # shows _repr_html_'s table, a terminal the same rows as text.
+        rows = self._summary_rows()
+        width = max(len(k) for k, _ in rows)
+        stored = "a only" if self.accelerations_only else "x, v, a and forces"
+        series = (f"time series: {self.t.size} samples of {stored} (r.t, r.a, r.accel_g); "
+                  f"{len(self.events)} contact events (r.events)")
+        return "\n".join([f"<SimulationResult: {self.preset or 'custom parameters'}>",
+                          *(f"  {k:<{width}}  {v}" for k, v in rows), f"  {series}"])
+
+    def _summary_rows(self) -> list[tuple[str, str]]:
         mean, std = self.peak_stats(1)
         j = f"{self.impulse_pos:.4g} N/kg"
         if self.m_ref_kg:
@@ -338,7 +349,11 @@ class SimulationResult:
         ]
         if self.steady_info is not None:
             rows.append(("steady state", str(self.steady_info)))
-        return key_value_table(f"SimulationResult: {self.preset or 'custom parameters'}", rows)
+        return rows
+
+    def _repr_html_(self) -> str:
+        return key_value_table(f"SimulationResult: {self.preset or 'custom parameters'}",
+                               self._summary_rows())
 
     def to_xarray(self) -> Any:
         """The recorded time series as an :class:`xarray.Dataset` with CF ``units`` and

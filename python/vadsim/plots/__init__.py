@@ -21,6 +21,8 @@ plots.regime_map(...)``):
 * :mod:`~vadsim.plots.campaigns`: recordings against the model -- :func:`mismatch_heatmap`,
   :func:`validation_peaks`, :func:`validation_mismatch`, :func:`heldout_features`,
   :func:`mismatch_base` (and their ``*_figure`` builders);
+* :mod:`~vadsim.plots.imports`: :func:`import_figure` (a record and surface log imported as a
+  campaign, the chosen stretches shaded);
 * :mod:`~vadsim.plots.style`: what they share (colours, style, saving, units, feature names).
 
 Conventions
@@ -52,6 +54,7 @@ from vadsim.plots.campaigns import (
 )
 from vadsim.plots.design import design_comparison
 from vadsim.plots.flow import THESIS_REFERENCES, j_vs_flow, peaks_vs_flow, z_vs_flow
+from vadsim.plots.imports import import_figure
 from vadsim.plots.maps import j_map, regime_map
 from vadsim.plots.style import (
     OPERATING_FRACTION,
@@ -71,6 +74,7 @@ __all__ = [
     "design_comparison",
     "heldout_features",
     "heldout_features_figure",
+    "import_figure",
     "j_map",
     "j_vs_flow",
     "mismatch_base",

@@ -27,6 +27,7 @@ from vadsim.plots.style import (
     check_path,
     feature_label,
     finish,
+    fit_titles,
     new_axes,
     run_length,
     styled,
@@ -68,7 +69,9 @@ def mismatch_heatmap(
     """Heat map of standardised residuals, events as rows and features as columns.
 
     A diverging colour map centred at 0 (colour limits -vmax..vmax), each cell annotated with
-    its value; missing values are grey and annotated "n/a".
+    its value; missing values are grey and annotated "n/a". A table too wide for its numbers
+    (cells under 0.45 in at the 16 in maximum width, ~30 columns) is drawn without them, its
+    labels upright.
 
     Parameters
     ----------
@@ -105,7 +108,12 @@ def mismatch_heatmap(
     values, vmax = _heat_values(table, vmax, func)
     nrow, ncol = values.shape
     width = min(16.0, max(4.5, 2.2 + 0.95 * ncol))
-    label_room = 0.04 * max(len(str(c)) for c in table.columns)  # x labels at 30 degrees
+    # Past ~30 columns a cell is too narrow for its number or a slanted label (a diagnosis'
+    # folded features: 80+ columns, numbers printed over each other): labels stand upright
+    # in a smaller font and the cells are left to their colour.
+    crowded = (width - 2.2) / ncol < 0.45
+    longest = max(len(str(c)) for c in table.columns)
+    label_room = 0.075 * longest if crowded else 0.04 * longest  # upright / at 30 degrees
     height = min(14.0, max(3.0, 1.6 + 0.42 * nrow) + label_room)
     fig, ax = new_axes(ax, (width, height))
     cm = mpl.colormaps[cmap].with_extremes(bad="#e6e6e6")
@@ -115,8 +123,12 @@ def mismatch_heatmap(
     cbar = fig.colorbar(image, ax=ax, pad=0.02)
     cbar.set_label(colorbar_label)
     ax.grid(False)
-    ax.set_xticks(np.arange(ncol), [str(c) for c in table.columns], rotation=30, ha="right",
-                  rotation_mode="anchor")
+    if crowded:
+        ax.set_xticks(np.arange(ncol), [str(c) for c in table.columns], rotation=90,
+                      fontsize=7)
+    else:
+        ax.set_xticks(np.arange(ncol), [str(c) for c in table.columns], rotation=30,
+                      ha="right", rotation_mode="anchor")
     ax.set_yticks(np.arange(nrow), [str(i) for i in table.index])
     ax.set_xticks(np.arange(-0.5, ncol), minor=True)
     ax.set_yticks(np.arange(-0.5, nrow), minor=True)
@@ -124,7 +136,7 @@ def mismatch_heatmap(
     ax.tick_params(which="minor", length=0)
     ax.set_xlabel(str(table.columns.name) if table.columns.name else "feature")
     ax.set_ylabel(str(table.index.name) if table.index.name else "event")
-    if annotate:
+    if annotate and not crowded:
         _annotate(ax, values, fmt, vmax)
     ax.set_title(title)
     return finish(fig, out)
@@ -219,7 +231,7 @@ def validation_peaks(result: ValidationResult) -> Figure:
     fig.suptitle(f"{result.campaign.name}\naxial vibration peaks vs flow, preset "
                  f"{result.preset.name}; {_conditions(result.campaign, result.settings)}",
                  fontsize=10)
-    return fig
+    return fit_titles(fig)
 
 
 def validation_mismatch(result: ValidationResult) -> Figure | None:
@@ -233,7 +245,7 @@ def validation_mismatch(result: ValidationResult) -> Figure | None:
     table = pd.concat([res.rename(columns=feature_label),
                        full.rename(columns=lambda k: f"{feature_label(k)} [full res.]")], axis=1)
     table.index = _event_labels(result.campaign, list(table.index))
-    return mismatch_heatmap(table, title=f"{result.campaign.name}: (model - recorded) / spread\n"
+    return mismatch_heatmap(table, title=f"{result.campaign.name}\n(model - recorded) / spread; "
                             f"{_conditions(result.campaign, result.settings)}")
 
 
@@ -283,7 +295,7 @@ def heldout_features_figure(diag: Diagnosis, n_features: int = 6) -> Figure | No
     fig.suptitle("Held-out predictions (leave one flow out), features with the largest "
                  f"base-model error\n{diag.campaign.name}: "
                  f"{_conditions(diag.campaign, diag.settings)}", fontsize=10)
-    return fig
+    return fit_titles(fig)
 
 
 def mismatch_base_figure(diag: Diagnosis) -> Figure:

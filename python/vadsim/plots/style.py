@@ -15,6 +15,8 @@ import functools
 import math
 import os
 import re
+import textwrap
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
@@ -99,6 +101,47 @@ def styled(func: Callable[_P, _F]) -> Callable[_P, _F]:
     return wrapper
 
 
+#: Width of an average character of the style's sans-serif font, in units of its size: what
+#: :func:`wrap_title` divides the room by (DejaVu Sans averages ~0.55 em; 0.6 leaves a margin).
+CHAR_EM = 0.6
+
+
+def wrap_title(text: str, width_in: float, fontsize: float) -> str:
+    """``text`` with its lines broken at spaces so that each fits ``width_in`` inches at
+    ``fontsize`` points: a title wider than its figure is cut off at both edges (it is
+    centred), in the saved file and on every page that shows it."""
+    chars = max(20, int(width_in * 72.0 / (CHAR_EM * fontsize)))
+    return "\n".join(textwrap.fill(line, chars, break_on_hyphens=False) or line
+                     for line in text.split("\n"))
+
+
+def fit_titles(fig: Figure) -> Figure:
+    """Re-wrap the figure's title and its axes' titles until each lies inside the figure.
+
+    A centred title wider than its figure, or centred over an axes that sits right of the
+    figure's centre, is cut off at its edges in the saved image; each such title is measured
+    after a draw and broken into more lines (at spaces) until it fits. Returns ``fig``.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    texts = [t for t in [getattr(fig, "_suptitle", None), *(ax.title for ax in fig.axes)]
+             if t is not None and t.get_text()]
+    for text in texts:
+        original = text.get_text()
+        width = fig.get_figwidth()
+        for _ in range(12):
+            with warnings.catch_warnings():  # a tiny figure's layout warns again when drawn
+                warnings.simplefilter("ignore", UserWarning)
+                canvas.draw()
+            box = text.get_window_extent(canvas.get_renderer())
+            if box.x0 >= -0.5 and box.x1 <= fig.bbox.width + 0.5:
+                break
+            width *= 0.85
+            text.set_text(wrap_title(original, width, float(text.get_fontsize())))
+    return fig
+
+
 def check_path(path: str | os.PathLike[str] | None) -> Path | None:
     """``path`` as a Path (None stays None), refused unless it ends in a saved format."""
     if path is None:
@@ -111,6 +154,7 @@ def check_path(path: str | os.PathLike[str] | None) -> Path | None:
 
 def finish(fig: Figure, path: Path | None) -> Figure:
     """Save ``fig`` to ``path`` (creating its folder) unless ``path`` is None; return it."""
+    fit_titles(fig)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, bbox_inches="tight")
