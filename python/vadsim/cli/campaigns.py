@@ -187,11 +187,13 @@ def _add_campaign_argument(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    # read (and refuse) the campaign before the fitting and report modules are imported
+    campaign = _campaign(args)
     from vadsim.fit.validate import validate
     from vadsim.report.validation import write_validation_report
 
-    t0 = time.perf_counter()
-    res = validate(_campaign(args), overrides=parse_overrides(args.set),
+    res = validate(campaign, overrides=parse_overrides(args.set),
                    cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers,
                    progress=not args.quiet)
     cmd = "vadsim validate " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else None
