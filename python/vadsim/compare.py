@@ -39,7 +39,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Hashable, Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -129,16 +129,72 @@ class EventSimulation:
 
     @classmethod
     def from_json(cls, event_id: str, d: Mapping[str, Any]) -> EventSimulation:
-        """The inverse of :meth:`to_json` for event ``event_id``."""
-        def feats(m: Mapping[str, list[float]]) -> dict[str, Feature]:
-            return {k: Feature(float(v), float(sp), int(n)) for k, (v, sp, n) in m.items()}
+        """The inverse of :meth:`to_json` for event ``event_id``.
 
-        return cls(event_id=event_id, flow_gpm=float(d["flow_gpm"]),
-                   wob_klbf=float(d["wob_klbf"]), f_exc_hz=float(d["f_exc_hz"]),
+        Raises
+        ------
+        ValueError, TypeError
+            If ``d`` is not what :meth:`to_json` writes (the keys, and numbers where numbers
+            belong): a cache entry is checked against this schema before it is used.
+        """
+        if not isinstance(d, Mapping) or set(d) != _SIMULATION_KEYS:
+            raise ValueError("not an event simulation: wrong keys")
+
+        def feats(m: Any) -> dict[str, Feature]:
+            return {str(k): Feature(_json_number(v), _json_number(sp), int(_json_number(n)))
+                    for k, (v, sp, n) in _json_table(m).items()}
+
+        return cls(event_id=event_id, flow_gpm=_json_number(d["flow_gpm"]),
+                   wob_klbf=_json_number(d["wob_klbf"]), f_exc_hz=_json_number(d["f_exc_hz"]),
                    sensor=feats(d["sensor"]), full=feats(d["full"]),
-                   z={k: float(v) for k, v in d["z"].items()}, scenario=int(d["scenario"]),
-                   phase_sd={k: float(v) for k, v in d["phase_sd"].items()},
-                   rate_hz=float(d["rate_hz"]), error=str(d["error"]))
+                   z={k: _json_number(v) for k, v in _json_table(d["z"]).items()},
+                   scenario=int(_json_number(d["scenario"])),
+                   phase_sd={k: _json_number(v) for k, v in _json_table(d["phase_sd"]).items()},
+                   rate_hz=_json_number(d["rate_hz"]), error=_json_str(d["error"]))
+
+    @classmethod
+    def from_json_entry(cls, value: Any) -> EventSimulation | None:
+        """A cache entry's value checked: ``None`` for a run that failed (``{"failed": true}``),
+        else the simulation (``event_id`` empty: the caller's event is set on it). Raises
+        ValueError or TypeError for anything else, so that the cache rejects the entry."""
+        if isinstance(value, Mapping) and set(value) == {"failed"}:
+            if value["failed"] is not True:
+                raise ValueError("not an event simulation: 'failed' must be true")
+            return None
+        return cls.from_json("", value)
+
+
+_SIMULATION_KEYS = frozenset({"flow_gpm", "wob_klbf", "f_exc_hz", "sensor", "full", "z",
+                              "scenario", "phase_sd", "rate_hz", "error"})
+
+
+_FAILED_RUN: Any = object()
+"""What :func:`_cached_simulation` gives for a cached failed run (None is the cache's miss)."""
+
+
+def _cached_simulation(value: Any) -> Any:
+    """A cache entry's schema: an :class:`EventSimulation`, or :data:`_FAILED_RUN`."""
+    sim = EventSimulation.from_json_entry(value)
+    return _FAILED_RUN if sim is None else sim
+
+
+def _json_number(value: Any) -> float:
+    """A number of a JSON document (not a bool or a string), as a float."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"expected a number, got {type(value).__name__}")
+    return float(value)
+
+
+def _json_str(value: Any) -> str:
+    if not isinstance(value, str):
+        raise TypeError(f"expected a string, got {type(value).__name__}")
+    return value
+
+
+def _json_table(value: Any) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise TypeError(f"expected a table, got {type(value).__name__}")
+    return value
 
 
 def sensor_groups(campaign: Campaign) -> dict[float, list[str]]:
@@ -657,9 +713,9 @@ class CampaignEvaluator:
         key = self._cache_key(change, ev)
         if key is not None:
             assert self.cache is not None
-            hit = self.cache.get(key)
+            hit = self.cache.get(key, parse=_cached_simulation)
             if hit is not None:
-                return None if hit.get("failed") else EventSimulation.from_json(eid, hit)
+                return None if hit is _FAILED_RUN else replace(hit, event_id=eid)
         sim = self._simulate(change, eid)
         if key is not None:
             assert self.cache is not None
