@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vadsim._interrupt import stop_on_interrupt
 from vadsim.campaigns.format import Campaign, Event
 from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.change import Measurement, ModelChange
@@ -774,14 +775,15 @@ class CampaignEvaluator:
         define the compared keys."""
         eids = list(eids) if eids is not None else self.event_ids
         missing = [e for e in eids if e not in self.keys]
-        for e, fut in [(e, self._pool.submit(self._one, None, e)) for e in missing]:
-            self._cache[("base", e)] = fut.result()
-            self.n_evals += 1
-        todo = {(k, e): ch for k, ch in items for e in eids if (k, e) not in self._cache}
-        futures = {ke: self._pool.submit(self._one, ch, ke[1]) for ke, ch in todo.items()}
-        for ke, fut in futures.items():
-            self._cache[ke] = fut.result()
-            self.n_evals += 1
+        with stop_on_interrupt(self._pool):  # Ctrl-C stops the runs in the threads too
+            for e, fut in [(e, self._pool.submit(self._one, None, e)) for e in missing]:
+                self._cache[("base", e)] = fut.result()
+                self.n_evals += 1
+            todo = {(k, e): ch for k, ch in items for e in eids if (k, e) not in self._cache}
+            futures = {ke: self._pool.submit(self._one, ch, ke[1]) for ke, ch in todo.items()}
+            for ke, fut in futures.items():
+                self._cache[ke] = fut.result()
+                self.n_evals += 1
         return {(k, e): self._cache[(k, e)] for k, _ in items for e in eids}
 
     def base(self, eids: Sequence[str] | None = None) -> dict[str, EventEval]:

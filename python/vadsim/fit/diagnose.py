@@ -56,6 +56,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim._html import grid_table, key_value_table
+from vadsim._interrupt import stop_on_interrupt
 from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, EventEval
@@ -676,7 +677,8 @@ def _fit_all(ctx: _Context, jobs: list[_Job], ev: CampaignEvaluator,
     # user's script without a main guard works); the parent's threads are idle here
     ctx_mp = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     out: dict[int, HypothesisFit] = {}
-    with ProcessPoolExecutor(max_workers=min(ev.workers, len(jobs)), mp_context=ctx_mp) as pool:
+    with ProcessPoolExecutor(max_workers=min(ev.workers, len(jobs)), mp_context=ctx_mp) as pool, \
+            stop_on_interrupt(pool):
         futures = {pool.submit(_fit_task, ctx, jobs[i]): i for i in order}
         for fut in as_completed(futures):
             f = fut.result()

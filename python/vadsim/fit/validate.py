@@ -24,6 +24,7 @@ from typing import Any
 
 import pandas as pd
 
+from vadsim._interrupt import stop_on_interrupt
 from vadsim._progress import bar
 from vadsim.campaigns import Campaign, Event, campaign_preset, load_any_campaign
 from vadsim.compare import (
@@ -152,7 +153,8 @@ def validate(
     def one(ev: Event) -> EventSimulation:
         return _simulate_cached(store, camp, ev, settings, measurement)
 
-    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool, \
+            stop_on_interrupt(pool):
         futures = {ev.id: pool.submit(one, ev) for ev in camp.events}
         with bar(progress, len(futures), f"validate {camp.name}", "event") as b:
             for f in as_completed(futures.values()):

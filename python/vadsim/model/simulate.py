@@ -4,7 +4,8 @@ Why this module exists: the core returns raw arrays; users want a run by preset 
 rate, with parameters overridden by name, extra physics by keyword, errors that name the bad
 input, and a result whose arrays, event table and steady-window summary are ready to use.
 The GIL is released while CVODE integrates, so runs in Python threads execute in parallel.
-Ctrl-C stops a run on the main thread within a few thousand steps (see :func:`simulate`).
+Ctrl-C stops a run within a few thousand steps, on the main thread or in a pool guarded by
+:func:`vadsim.stop_on_interrupt` (see :func:`simulate`).
 """
 
 from __future__ import annotations
@@ -371,10 +372,12 @@ def simulate(
         On Ctrl-C during a run on the main thread: every 2000 steps the run lets Python run
         its signal handlers, and stops if one raises (the exception gets a note saying at
         which time and step the run stopped). Python runs signal handlers on the main thread
-        only, so a run in a worker thread (``ThreadPoolExecutor``) is not interrupted: the
-        main thread gets the KeyboardInterrupt while it waits, and the worker's run goes on
-        to its end (or its step budget); leaving the executor's ``with`` block then waits for
-        the runs in progress. To stop parallel runs promptly, run them in processes.
+        only; a run in a worker thread polls the core's process-wide stop request instead
+        (``vadsim._core.request_interrupt()``), which :func:`vadsim.stop_on_interrupt` sets
+        when Ctrl-C reaches the main thread: ``with ThreadPoolExecutor() as pool,
+        vadsim.stop_on_interrupt(pool): ...`` stops every run of the pool within 2000 steps.
+        vadsim's own pools (the CLI, validate, the comparison engine, maps, a diagnosis'
+        processes) do so.
 
     Examples
     --------

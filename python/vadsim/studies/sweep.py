@@ -38,6 +38,7 @@ import uuid
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from functools import cached_property
 from itertools import product
@@ -47,6 +48,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from vadsim import _core
+from vadsim._interrupt import stop_on_interrupt
 from vadsim._version import __version__ as _version
 from vadsim.model.presets import get_preset, make_params, param_table
 from vadsim.model.settings import ExtraSpec, RunSettings
@@ -145,6 +148,7 @@ machine under heavy load), so it is taken over."""
 
 _HEARTBEAT_S = 5.0
 _POLL_S = 0.2
+_DASK_STOP_S = 0.2  # how long a Dask cluster's runs are given to see a stop request
 _CHUNK_FLOWS = 8
 
 # Poincare section scales: 1 mm and 1 m/s, so that "same state" means within 1 um and 1 mm/s
@@ -762,8 +766,9 @@ class _Store:
 
 def _make_executor(
     workers: int | None, scheduler: str | None
-) -> tuple[Executor, Callable[[], None], int]:
-    """An executor, its closer and how many chunks to keep in flight on it."""
+) -> tuple[Executor, Callable[[], None], int, Callable[[], AbstractContextManager[None]]]:
+    """An executor, its closer, how many chunks to keep in flight on it, and the guard that
+    stops its runs on Ctrl-C (:func:`vadsim.stop_on_interrupt`)."""
     if scheduler:
         from dask.distributed import Client
 
@@ -774,14 +779,23 @@ def _make_executor(
             ex.shutdown(wait=False)
             client.close()
 
-        return ex, close, max(4, 2 * sum(client.nthreads().values()))
+        def stop_cluster_runs() -> None:
+            # the workers' runs poll their process's stop request: set it there, give the
+            # runs a moment (they stop within 2000 steps), then withdraw it for later work
+            with contextlib.suppress(Exception):
+                client.run(_core.request_interrupt)
+                time.sleep(_DASK_STOP_S)
+                client.run(_core.clear_interrupt)
+
+        return (ex, close, max(4, 2 * sum(client.nthreads().values())),
+                lambda: stop_on_interrupt(on_interrupt=stop_cluster_runs))
     n = workers or os.cpu_count() or 1
     ex = ThreadPoolExecutor(max_workers=n)
 
     def close_threads() -> None:
         ex.shutdown(wait=False, cancel_futures=True)
 
-    return ex, close_threads, 2 * n
+    return ex, close_threads, 2 * n, lambda: stop_on_interrupt(ex)
 
 
 @dataclass(eq=False)
@@ -867,17 +881,18 @@ def _run_chunks(todo: Sequence[_Chunk], done: dict[str, list[dict[str, Any]]],
     process's claims are released and the exception propagates.
     """
     queue = _Queue(list(todo), done, store, bar)
-    ex, close, slots = _make_executor(workers, scheduler)
+    ex, close, slots, guard = _make_executor(workers, scheduler)
     try:
-        while queue.pending or queue.running:
-            if store is not None:
-                store.heartbeat()
-            queue.collect_elsewhere()
-            queue.start(ex, slots)
-            if queue.running:
-                queue.harvest()
-            elif queue.pending:  # everything left is being computed elsewhere
-                time.sleep(_POLL_S)
+        with guard():
+            while queue.pending or queue.running:
+                if store is not None:
+                    store.heartbeat()
+                queue.collect_elsewhere()
+                queue.start(ex, slots)
+                if queue.running:
+                    queue.harvest()
+                elif queue.pending:  # everything left is being computed elsewhere
+                    time.sleep(_POLL_S)
     finally:
         try:
             queue.save_finished()
