@@ -33,20 +33,22 @@ event under the same model) reads it instead of running it again.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import threading
 from collections import OrderedDict
-from collections.abc import Hashable, Iterable, Mapping, Sequence
+from collections.abc import Hashable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from vadsim._interrupt import stop_on_interrupt
-from vadsim.campaigns.format import Campaign, Event
+from vadsim.campaigns.format import CAMPAIGN_FILE, Campaign, Event, excerpt
 from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.change import Measurement, ModelChange
 from vadsim.model.settings import RunSettings
@@ -221,16 +223,36 @@ def run_event(campaign: Campaign, event: Event, settings: RunSettings) -> Simula
     (:func:`vadsim.model.steady.steady_run`). Without the core's 20 kHz summary: every feature
     is measured from the stored series, and the summary cost 15 % of such a run. Only the
     accelerations are stored (a sensor measures nothing else): a third of the memory."""
-    return steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="window",
-                      output_rate_hz=fine_rate_hz(campaign), summary_rate_hz=0.0,
-                      accelerations_only=True)
+    with _naming_the_event(campaign, event):
+        return steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="window",
+                          output_rate_hz=fine_rate_hz(campaign), summary_rate_hz=0.0,
+                          accelerations_only=True)
+
+
+@contextlib.contextmanager
+def _naming_the_event(campaign: Campaign, event: Event) -> Iterator[None]:
+    """A ValueError of a run (a flow or WOB the model cannot take) re-raised with the
+    campaign's file, the event's key and its id in front: the user edits that file."""
+    try:
+        yield
+    except ValueError as exc:
+        index = next((i for i, e in enumerate(campaign.events) if e is event), None)
+        text = str(exc)
+        field = ("flow_gpm" if text.startswith("flow_gpm") else
+                 "wob_klbf" if text.startswith("wob_klbf") else None)
+        key = "events" + (f"[{index}]" if index is not None else "") + (
+            f".{field}" if field else "")
+        where = (Path(campaign.root) / CAMPAIGN_FILE if campaign.root is not None
+                 else f"campaign {excerpt(campaign.name)}")
+        raise ValueError(f"{where}: key {key} (event {excerpt(event.id)}): {text}") from None
 
 
 def summary_event(campaign: Campaign, event: Event, settings: RunSettings) -> EventSimulation:
     """Peaks and impacts per cycle at full resolution from the core's own steady-window summary
     (20 kHz): no time series is stored, which makes a 9.5in run 10x cheaper. What a comparison
     with the dissertation's own simulations needs."""
-    r = steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="none")
+    with _naming_the_event(campaign, event):
+        r = steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="none")
     full: dict[str, Feature] = {}
     for name, s in campaign.sensors.items():
         peaks = r.window_peaks_g[:, s.dof - 1]

@@ -56,6 +56,8 @@ __all__ = [
     "CsvLimits",
     "csv_limits",
     "MAX_TOML_BYTES",
+    "MAX_WOB_KLBF",
+    "MIN_LOWPASS_FRACTION",
     "MAX_NAME_CHARS",
     "MAX_ID_CHARS",
     "MAX_DESCRIPTION_CHARS",
@@ -94,6 +96,15 @@ EXCERPT_CHARS = 80
 # A campaign folder may come from anyone. Each input is bounded before it is parsed, so that a
 # hostile or broken file costs a bounded amount of memory and time and fails with an error
 # naming the file and the limit, instead of growing the process until the kernel kills it.
+
+#: Largest weight on bit a campaign may state (klbf): field WOBs are tens of klbf; beyond this
+#: the model's static state leaves every physical range.
+MAX_WOB_KLBF = 1000.0
+
+#: Lowest anti-alias corner, as a fraction of the sensor's rate (``lowpass_hz >= rate_hz *
+#: this``): a corner far below that is no anti-alias filter, and one near zero cannot be
+#: designed (the filter's matrix is singular).
+MIN_LOWPASS_FRACTION = 1e-3
 
 #: Largest campaign.toml read (bytes): a campaign of a thousand events is a few hundred kB.
 MAX_TOML_BYTES = 1 << 20

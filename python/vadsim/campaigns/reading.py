@@ -27,6 +27,8 @@ from vadsim.campaigns.format import (
     MAX_NAME_CHARS,
     MAX_SENSORS,
     MAX_TOML_BYTES,
+    MAX_WOB_KLBF,
+    MIN_LOWPASS_FRACTION,
     Campaign,
     CampaignError,
     ClippedSamplesWarning,
@@ -212,6 +214,16 @@ def _get_positive(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | 
     return number
 
 
+def _get_wob(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+             label: str = "") -> float | None:
+    """An optional weight on bit: > 0 and at most :data:`MAX_WOB_KLBF`."""
+    wob = _get_positive(ctx, table, path, required=False, label=label)
+    if wob is not None and wob > MAX_WOB_KLBF:
+        ctx.fail(path, f"must be at most {MAX_WOB_KLBF:g} klbf (a stated limit: field weights "
+                 f"on bit are tens of klbf), got {wob:g}", label)
+    return wob
+
+
 def _check_keys(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
                 allowed: tuple[str, ...], label: str = "") -> None:
     for key in table:
@@ -304,7 +316,7 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None,
         if preset_file is None:
             ctx.fail(("tool",), f"unknown tool {excerpt(tool)}: neither a known preset "
                      f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file in {root}")
-    wob_default = _get_positive(ctx, doc, ("wob_klbf",), required=False)
+    wob_default = _get_wob(ctx, doc, ("wob_klbf",))
     description = ""
     if "description" in doc:
         if not isinstance(doc["description"], str):
@@ -354,6 +366,11 @@ def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor
         range_g = _get_positive(ctx, spec, path + ("range_g",))
         lowpass = _get_positive(ctx, spec, path + ("lowpass_hz",), required=False)
         assert rate is not None and range_g is not None
+        if lowpass is not None and lowpass < rate * MIN_LOWPASS_FRACTION:
+            ctx.fail(path + ("lowpass_hz",),
+                     f"must be at least rate_hz / {1 / MIN_LOWPASS_FRACTION:g} = "
+                     f"{rate * MIN_LOWPASS_FRACTION:g} Hz (an anti-alias corner), got "
+                     f"{lowpass:g}")
         if lowpass is not None and lowpass >= rate / 2:
             ctx.fail(path + ("lowpass_hz",),
                      f"must be below the Nyquist frequency rate_hz/2 = {rate / 2:g} Hz, "
@@ -389,7 +406,7 @@ def _parse_events(ctx: TomlContext, doc: Mapping[str, Any], sensors: Mapping[str
                      f"events[{first_index[event_id]}]", label)
         first_index[event_id] = i
         flow = _get_positive(ctx, spec, path + ("flow_gpm",), label=label)
-        wob = _get_positive(ctx, spec, path + ("wob_klbf",), required=False, label=label)
+        wob = _get_wob(ctx, spec, path + ("wob_klbf",), label)
         if wob is None:
             if wob_default is None:
                 ctx.fail(path + ("wob_klbf",), "missing, and the campaign has no default "

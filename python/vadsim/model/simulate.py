@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim import _core
+from vadsim._checks import shown
 from vadsim._html import key_value_table
 from vadsim.model.presets import OPTIONAL_PARAMS, Preset, get_preset, make_params
 from vadsim.model.regimes import regime_name, scenario
@@ -54,11 +55,13 @@ def _number(name: str, value: Any, *, integer: bool = False) -> float:
     """``value`` as a float (or int), or a ValueError that names the argument. Booleans are
     not numbers here (``float(True)`` is 1.0, but ``simulate(p, True)`` is a mistake)."""
     if isinstance(value, (bool, np.bool_, str, bytes)) or value is None:
-        raise ValueError(f"{name} = {value!r} must be a number")
+        raise ValueError(f"{name} = {shown(value)} must be a number")
     try:
         out = float(value)
+    except OverflowError:
+        raise ValueError(f"{name} = {shown(value)} is too large for a double") from None
     except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r} must be a number") from None
+        raise ValueError(f"{name} = {shown(value)} must be a number") from None
     if math.isnan(out):
         raise ValueError(f"{name} = nan must be a number")
     if integer:
@@ -398,10 +401,17 @@ def simulate(
             raise ValueError("wob_klbf needs a preset (it scales the preset's wob)")
         wob = _number("wob_klbf", wob_klbf)
         if not (wob >= 0) or not math.isfinite(wob):
-            raise ValueError(f"wob_klbf = {wob_klbf} must be finite and >= 0")
+            raise ValueError(f"wob_klbf = {wob:g} must be finite and >= 0")
         params.wob = params.wob * wob / preset.wob_klbf
-        params.validate()
+        try:
+            params.validate()
+        except ValueError as exc:
+            raise ValueError(f"wob_klbf = {wob:g} klbf is beyond what the model takes (it sets "
+                             f"the parameter wob to {params.wob:.4g} N/kg): {exc}") from None
     flow = _flow(params, flow_gpm)
+    if not isinstance(extras, Sequence) or isinstance(extras, (str, bytes)):
+        raise ValueError(f"extras = {shown(extras)} must be a sequence of extra forces "
+                         "(vadsim.extra_force(...)), e.g. []")
     for i, e in enumerate(extras):
         if not (isinstance(e, _core.ExtraForce) or callable(getattr(e, "build", None))):
             raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...) "
