@@ -13,12 +13,21 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
-from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, ProcessPoolExecutor
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from typing import TypeVar
 
 from vadsim import _core
 
-__all__ = ["stop_on_interrupt"]
+__all__ = ["finished", "result", "stop_on_interrupt"]
+
+T = TypeVar("T")
+
+WAIT_SLICE_S = 0.1
+"""How long the main thread sleeps at most while it waits for work (s). The kernel delivers a
+process' SIGINT to any of its threads; delivered to a worker, it does not wake a main thread
+asleep in a blocking wait, which then sees it only when it wakes (after a whole run). Waiting
+in slices, it runs the handler within a slice."""
 
 JOIN_TIMEOUT_S = 5.0
 """How long a terminated worker process is waited for before it is killed (a hang guard)."""
@@ -61,6 +70,23 @@ def stop_on_interrupt(pool: Executor | None = None,
         finally:
             _core.clear_interrupt()
         raise
+
+
+def result(future: Future[T]) -> T:
+    """``future.result()``, waited for in slices of :data:`WAIT_SLICE_S` so that Ctrl-C is
+    seen at once whichever thread the signal was delivered to."""
+    while not future.done():
+        wait([future], timeout=WAIT_SLICE_S)
+    return future.result()
+
+
+def finished(futures: Iterable[Future[T]]) -> Iterator[Future[T]]:
+    """The futures as they finish (``as_completed``), waited for in slices of
+    :data:`WAIT_SLICE_S` (see :func:`result`)."""
+    pending = set(futures)
+    while pending:
+        done, pending = wait(pending, timeout=WAIT_SLICE_S, return_when=FIRST_COMPLETED)
+        yield from done
 
 
 def _terminate(children: set[multiprocessing.process.BaseProcess]) -> None:

@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vadsim._interrupt import stop_on_interrupt
+from vadsim._interrupt import result, stop_on_interrupt
 from vadsim.campaigns.format import CAMPAIGN_FILE, Campaign, Event, excerpt
 from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.change import Measurement, ModelChange
@@ -799,12 +799,12 @@ class CampaignEvaluator:
         missing = [e for e in eids if e not in self.keys]
         with stop_on_interrupt(self._pool):  # Ctrl-C stops the runs in the threads too
             for e, fut in [(e, self._pool.submit(self._one, None, e)) for e in missing]:
-                self._cache[("base", e)] = fut.result()
+                self._cache[("base", e)] = result(fut)
                 self.n_evals += 1
             todo = {(k, e): ch for k, ch in items for e in eids if (k, e) not in self._cache}
             futures = {ke: self._pool.submit(self._one, ch, ke[1]) for ke, ch in todo.items()}
             for ke, fut in futures.items():
-                self._cache[ke] = fut.result()
+                self._cache[ke] = result(fut)
                 self.n_evals += 1
         return {(k, e): self._cache[(k, e)] for k, _ in items for e in eids}
 

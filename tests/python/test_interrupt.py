@@ -183,3 +183,33 @@ def test_an_exception_other_than_ctrl_c_does_not_raise_the_stop_request():
             vadsim.stop_on_interrupt(pool):
         raise ValueError("not an interrupt")
     assert not _core.interrupt_requested()
+
+
+def test_sigint_delivered_to_a_worker_thread_still_stops_vadsim_run():
+    """The kernel may deliver a process' SIGINT to any of its threads. Delivered to a worker
+    running the core, it left the main thread asleep in a blocking wait until a run ended (a
+    measured ``vadsim run`` of two flows took 508 s to exit): the main thread must wait in
+    short slices. The signal is sent to a worker thread here, so the case is not left to
+    chance."""
+    proc = _child(f"""
+        import signal, sys, threading, time
+        from vadsim.cli import main
+
+        def poke():
+            while True:
+                workers = [t for t in threading.enumerate()
+                           if t.name.startswith("ThreadPoolExecutor")]
+                if len(workers) == 2:
+                    break
+                time.sleep(0.05)
+            time.sleep(1.0)  # the main thread is waiting for the runs by now
+            print("poke", flush=True)
+            signal.pthread_kill(workers[0].ident, signal.SIGINT)
+
+        threading.Thread(target=poke, daemon=True).start()
+        sys.exit(main(["run", "--flow", "200", "250", "--cycles", "{LONG}", "--analyse",
+                       "10", "--workers", "2"]))
+    """)
+    out, err = _wait(proc)
+    assert "poke" in out and proc.returncode == 130, err
+    assert "vadsim: interrupted" in err and "Traceback" not in err, err

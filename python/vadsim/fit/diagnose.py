@@ -48,7 +48,7 @@ import multiprocessing as mp
 import os
 import time
 from collections.abc import Callable, Collection, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -56,7 +56,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim._html import grid_table, key_value_table
-from vadsim._interrupt import stop_on_interrupt
+from vadsim._interrupt import finished, stop_on_interrupt
 from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, EventEval
@@ -680,7 +680,7 @@ def _fit_all(ctx: _Context, jobs: list[_Job], ev: CampaignEvaluator,
     with ProcessPoolExecutor(max_workers=min(ev.workers, len(jobs)), mp_context=ctx_mp) as pool, \
             stop_on_interrupt(pool):
         futures = {pool.submit(_fit_task, ctx, jobs[i]): i for i in order}
-        for fut in as_completed(futures):
+        for fut in finished(futures):
             f = fut.result()
             out[futures[fut]] = f
             ev.n_evals += f.n_evals

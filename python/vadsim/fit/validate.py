@@ -18,13 +18,13 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor, as_completed
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from typing import Any
 
 import pandas as pd
 
-from vadsim._interrupt import stop_on_interrupt
+from vadsim._interrupt import finished, stop_on_interrupt
 from vadsim._progress import bar
 from vadsim.campaigns import Campaign, Event, campaign_preset, load_any_campaign
 from vadsim.compare import (
@@ -157,7 +157,7 @@ def validate(
             stop_on_interrupt(pool):
         futures = {ev.id: pool.submit(one, ev) for ev in camp.events}
         with bar(progress, len(futures), f"validate {camp.name}", "event") as b:
-            for f in as_completed(futures.values()):
+            for f in finished(futures.values()):
                 f.result()
                 b.update()
         sims = {k: f.result() for k, f in futures.items()}
