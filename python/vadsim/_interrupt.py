@@ -40,6 +40,9 @@ def stop_on_interrupt(pool: Executor | None = None,
 
     Put it inside the pool's own ``with`` (``with ThreadPoolExecutor() as pool,
     stop_on_interrupt(pool):``) so that it acts before the pool's exit waits for its runs.
+    Wait for the results with a timeout in a loop (``concurrent.futures.wait(..., timeout=
+    0.1)``), not one blocking call: a SIGINT the kernel delivers to a worker thread reaches
+    the main thread only when it next wakes.
 
     Parameters
     ----------
