@@ -64,15 +64,35 @@ def stop_on_interrupt(pool: Executor | None = None,
     except KeyboardInterrupt:
         _core.request_interrupt()
         try:
-            if processes:
-                _terminate(set(multiprocessing.active_children()) - before)
-            if pool is not None:
-                pool.shutdown(wait=True, cancel_futures=True)
-            if on_interrupt is not None:
-                on_interrupt()
+            for _ in range(EXTRA_INTERRUPTS + 1):
+                try:
+                    _stop(pool, set(multiprocessing.active_children()) - before
+                          if processes else set(), on_interrupt)
+                    break
+                except KeyboardInterrupt:
+                    # another Ctrl-C (or timeout's second SIGINT) while the runs stop: they
+                    # stop anyway; withdrawing the request now would leave them going
+                    continue
         finally:
             _core.clear_interrupt()
         raise
+
+
+EXTRA_INTERRUPTS = 3
+"""Further Ctrl-Cs :func:`stop_on_interrupt` lets pass while it waits for the runs to stop;
+one more gives up waiting (work that does not poll the stop request may never end)."""
+
+
+def _stop(pool: Executor | None, children: set[multiprocessing.process.BaseProcess],
+          on_interrupt: Callable[[], None] | None) -> None:
+    """Terminate ``children``, cancel the pool's queued work and wait for its runs, then call
+    ``on_interrupt``; each step may be repeated."""
+    if children:
+        _terminate(children)
+    if pool is not None:
+        pool.shutdown(wait=True, cancel_futures=True)
+    if on_interrupt is not None:
+        on_interrupt()
 
 
 def result(future: Future[T]) -> T:

@@ -213,3 +213,27 @@ def test_sigint_delivered_to_a_worker_thread_still_stops_vadsim_run():
     out, err = _wait(proc)
     assert "poke" in out and proc.returncode == 130, err
     assert "vadsim: interrupted" in err and "Traceback" not in err, err
+
+
+def test_a_second_ctrl_c_while_the_runs_stop_does_not_withdraw_the_stop_request():
+    """``timeout -s INT`` sends SIGINT to the command and again to its process group, and an
+    impatient user presses Ctrl-C twice: a second KeyboardInterrupt that came while the first
+    was waiting for the runs to stop withdrew the stop request early and left the runs going
+    (a measured ``vadsim run`` hung until killed). The pool here raises it from its
+    ``shutdown``, where the second signal lands."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    seen: list[bool] = []
+
+    class Pool(ThreadPoolExecutor):
+        def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+            seen.append(_core.interrupt_requested())
+            if len(seen) == 1:
+                raise KeyboardInterrupt  # the second Ctrl-C
+            super().shutdown(wait=wait, cancel_futures=cancel_futures)
+
+    pool = Pool(1)
+    with pytest.raises(KeyboardInterrupt), vadsim.stop_on_interrupt(pool):
+        raise KeyboardInterrupt
+    assert seen[:2] == [True, True]  # waited again, the request still in force
+    assert not _core.interrupt_requested()
