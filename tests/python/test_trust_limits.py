@@ -61,10 +61,12 @@ def _good_csv(n: int = 3000) -> str:
 
 def _validate_in_child(folder: Path) -> tuple[int, str, float]:
     """``vadsim validate FOLDER`` in a fresh process: its exit code, stderr and peak RSS (MB)."""
-    code = ("import resource, sys\nfrom vadsim.cli import main\n"
+    # VmHWM is this process' own peak: ru_maxrss would carry over the parent's across exec
+    code = ("import sys\nfrom vadsim.cli import main\n"
             f"rc = main(['validate', {str(folder)!r}, '--quiet', '--out', "
             f"{str(folder / 'report')!r}])\n"
-            "print(rc, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)\n")
+            "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM:')][0]\n"
+            "print(rc, int(hwm.split()[1]) / 1024)\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=600)
     assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
