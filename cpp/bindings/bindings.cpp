@@ -8,6 +8,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
+
 #include "vadsim/integrator.hpp"
 
 namespace py = pybind11;
@@ -262,15 +264,23 @@ bool on_main_thread() {
   return main.cast<unsigned long>() == PyThread_get_thread_ident();
 }
 
-/// @brief Ctrl-C during a run: every kInterruptCheckEvery steps the run takes the GIL back for
-/// a moment and lets Python run its pending signal handlers. A handler that raises (SIGINT's
-/// default raises KeyboardInterrupt) stops the run, and its exception is raised by simulate.
-/// Only on the main thread: elsewhere Python runs no handlers, so a run in a worker thread
-/// has no check and goes on to its end (the main thread gets the KeyboardInterrupt).
+/// @brief The process-wide stop request: set from Python (request_interrupt, e.g. by the
+/// CLI's or a pool helper's Ctrl-C handling) and read by every run in progress, in any thread,
+/// without the GIL. Python runs signal handlers on the main thread only, so this flag is how a
+/// Ctrl-C reaches runs in worker threads.
+std::atomic<bool> g_interrupt_requested{false};
+
+/// @brief Ctrl-C during a run: every kInterruptCheckEvery steps the run looks at the stop
+/// request and, on the main thread, takes the GIL back for a moment and lets Python run its
+/// pending signal handlers. A handler that raises (SIGINT's default raises KeyboardInterrupt)
+/// or a stop request stops the run, and simulate raises (KeyboardInterrupt for a request).
 bool python_signal_pending() {
+  if (g_interrupt_requested.load(std::memory_order_relaxed)) return true;
   py::gil_scoped_acquire gil;
   return PyErr_CheckSignals() != 0;
 }
+
+bool interrupt_requested() { return g_interrupt_requested.load(std::memory_order_relaxed); }
 
 /// @brief simulate with the GIL released, so Python threads run simulations in parallel.
 void bind_simulate(py::module_& m) {
@@ -278,13 +288,13 @@ void bind_simulate(py::module_& m) {
       "simulate",
       [](const Model& model, const RunOptions& opts) {
         const InterruptCheck check = on_main_thread() ? InterruptCheck(python_signal_pending)
-                                                      : InterruptCheck();
+                                                      : InterruptCheck(interrupt_requested);
         try {
           py::gil_scoped_release release;
           return simulate(model, opts, check);
         } catch (const Interrupted& e) {
-          // The GIL is held again, and the signal handler's exception is pending: raise it,
-          // with a note that says how far the run got.
+          // The GIL is held again. A signal handler's exception may be pending: raise it;
+          // a stop request raises KeyboardInterrupt. Either with a note of how far the run got.
           if (!PyErr_Occurred()) PyErr_SetNone(PyExc_KeyboardInterrupt);
           py::error_already_set err;
           err.value().attr("add_note")(e.what());
@@ -293,8 +303,19 @@ void bind_simulate(py::module_& m) {
       },
       py::arg("model"), py::arg("options"),
       "Run the model (GIL released). Raises SolverError on solver failure, ValueError on bad "
-      "options, and the exception of a signal handler (KeyboardInterrupt for Ctrl-C) when a "
-      "signal arrives during a run on the main thread.");
+      "options, the exception of a signal handler (KeyboardInterrupt for Ctrl-C) when a "
+      "signal arrives during a run on the main thread, and KeyboardInterrupt in any thread "
+      "when request_interrupt() was called.");
+  m.def(
+      "request_interrupt", [] { g_interrupt_requested.store(true); },
+      "Ask every run in progress in this process, in any thread, to stop within "
+      "kInterruptCheckEvery steps (it raises KeyboardInterrupt); runs started before "
+      "clear_interrupt() stop at once.");
+  m.def(
+      "clear_interrupt", [] { g_interrupt_requested.store(false); },
+      "Withdraw request_interrupt(): runs go to their end again.");
+  m.def("interrupt_requested", &interrupt_requested,
+        "Whether request_interrupt() is in force.");
 }
 
 }  // namespace

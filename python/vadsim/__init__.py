@@ -19,6 +19,7 @@ Quick start
 
 from vadsim import _aliases
 from vadsim import campaigns as recordings
+from vadsim._interrupt import stop_on_interrupt
 from vadsim._version import __version__
 from vadsim.model import presets
 from vadsim.model.presets import (
@@ -100,6 +101,7 @@ __all__ = [
     "report",
     "sensor",
     "simulate",
+    "stop_on_interrupt",
     "sweep",
     "synthetic",
     "thesis",

@@ -220,4 +220,15 @@ class RunResult:
 
 def simulate(model: Model, options: RunOptions) -> RunResult:
     """GIL released; on the main thread, a signal handler that raises (Ctrl-C) stops the run
-    within 2000 steps and its exception propagates, with a note of where the run stopped."""
+    within 2000 steps and its exception propagates, with a note of where the run stopped; in
+    any thread, request_interrupt() stops it the same way with KeyboardInterrupt."""
+
+def request_interrupt() -> None:
+    """Ask every run in progress in this process, in any thread, to stop within 2000 steps
+    (KeyboardInterrupt); runs started before clear_interrupt() stop at once."""
+
+def clear_interrupt() -> None:
+    """Withdraw request_interrupt()."""
+
+def interrupt_requested() -> bool:
+    """Whether request_interrupt() is in force."""

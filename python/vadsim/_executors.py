@@ -1,25 +1,47 @@
 """Where parallel work runs: local threads or processes, or an existing Dask cluster.
 
 Why this module exists: maps (:mod:`vadsim.studies.sweep`) and diagnoses
-(:mod:`vadsim.fit.diagnose`) both send independent pieces of work to a pool, and both take a
+(:mod:`vadsim.fit.diagnosis`) both send independent pieces of work to a pool, and both take a
 Dask scheduler's address instead (``scheduler="tcp://HOST:PORT"``, ``--scheduler``). The
 executor of a Dask client is a :class:`concurrent.futures.Executor` like a local pool, so the
-code that submits work and collects results is the same for both; only how the pool is made
-and closed differs, and that is here, once.
+code that submits work and collects results is the same for both; how a pool is made, closed
+and stopped on Ctrl-C differs, and that is here, once.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import os
+import time
 from collections.abc import Callable
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+from contextlib import AbstractContextManager
+from dataclasses import dataclass
 
-__all__ = ["Pool", "dask_pool", "local_processes", "local_threads"]
+from vadsim import _core
+from vadsim._interrupt import stop_on_interrupt
 
-Pool = tuple[Executor, Callable[[], None], int]
-"""An executor, the function that closes it, and how many pieces of work to keep in flight
-on it (a few more than it runs at once, so that no worker waits)."""
+__all__ = ["DASK_STOP_S", "Pool", "dask_pool", "local_processes", "local_threads"]
+
+DASK_STOP_S = 0.2
+"""How long a Dask cluster's runs are given to see a stop request (they poll it every 2000
+steps) before it is withdrawn for later work."""
+
+
+@dataclass(frozen=True)
+class Pool:
+    """An executor and what goes with it."""
+
+    executor: Executor
+    close: Callable[[], None]
+    """Shuts the executor (and a Dask client) down."""
+    slots: int
+    """How many pieces of work to keep in flight (a few more than run at once, so that no
+    worker waits)."""
+    guard: Callable[[], AbstractContextManager[None]]
+    """A context for the block that waits on the pool: on Ctrl-C it stops the pool's runs,
+    then re-raises (:func:`vadsim.stop_on_interrupt`)."""
 
 
 def dask_pool(address: str) -> Pool:
@@ -44,7 +66,16 @@ def dask_pool(address: str) -> Pool:
         ex.shutdown(wait=False)
         client.close()
 
-    return ex, close, max(4, 2 * sum(client.nthreads().values()))
+    def stop_cluster_runs() -> None:
+        # the workers' runs poll their process's stop request: set it there, give the runs a
+        # moment, then withdraw it for later work
+        with contextlib.suppress(Exception):
+            client.run(_core.request_interrupt)
+            time.sleep(DASK_STOP_S)
+            client.run(_core.clear_interrupt)
+
+    return Pool(ex, close, max(4, 2 * sum(client.nthreads().values())),
+                lambda: stop_on_interrupt(on_interrupt=stop_cluster_runs))
 
 
 def local_threads(workers: int | None) -> Pool:
@@ -56,7 +87,7 @@ def local_threads(workers: int | None) -> Pool:
     def close() -> None:
         ex.shutdown(wait=False, cancel_futures=True)
 
-    return ex, close, 2 * n
+    return Pool(ex, close, 2 * n, lambda: stop_on_interrupt(ex))
 
 
 def local_processes(workers: int) -> Pool:
@@ -69,4 +100,4 @@ def local_processes(workers: int) -> Pool:
     def close() -> None:
         ex.shutdown(wait=True, cancel_futures=True)
 
-    return ex, close, 2 * workers
+    return Pool(ex, close, 2 * workers, lambda: stop_on_interrupt(ex))

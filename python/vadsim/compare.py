@@ -37,19 +37,22 @@ event under the same model) reads it instead of running it again.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import threading
 from collections import OrderedDict
-from collections.abc import Hashable, Iterable, Mapping, Sequence
+from collections.abc import Hashable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from vadsim.campaigns.format import Campaign, Event
+from vadsim._interrupt import result, stop_on_interrupt
+from vadsim.campaigns.format import CAMPAIGN_FILE, Campaign, Event, excerpt
 from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.change import Measurement, ModelChange
 from vadsim.model.settings import RunSettings
@@ -181,19 +184,81 @@ class EventSimulation:
 
     @classmethod
     def from_json(cls, event_id: str, d: Mapping[str, Any]) -> EventSimulation:
-        """The inverse of :meth:`to_json` for event ``event_id``."""
-        def feats(m: Mapping[str, list[float]]) -> dict[str, Feature]:
-            return {k: Feature(float(v), float(sp), int(n)) for k, (v, sp, n) in m.items()}
+        """The inverse of :meth:`to_json` for event ``event_id``.
 
-        return cls(event_id=event_id, flow_gpm=float(d["flow_gpm"]),
-                   wob_klbf=float(d["wob_klbf"]), f_exc_hz=float(d["f_exc_hz"]),
+        Raises
+        ------
+        ValueError, TypeError
+            If ``d`` is not what :meth:`to_json` writes (the keys, and numbers where numbers
+            belong): a cache entry is checked against this schema before it is used.
+        """
+        if not isinstance(d, Mapping) or set(d) != _SIMULATION_KEYS:
+            raise ValueError("not an event simulation: wrong keys")
+
+        def feats(m: Any) -> dict[str, Feature]:
+            return {str(k): Feature(_json_number(v), _json_number(sp), int(_json_number(n)))
+                    for k, (v, sp, n) in _json_table(m).items()}
+
+        return cls(event_id=event_id, flow_gpm=_json_number(d["flow_gpm"]),
+                   wob_klbf=_json_number(d["wob_klbf"]), f_exc_hz=_json_number(d["f_exc_hz"]),
                    sensor=feats(d["sensor"]), full=feats(d["full"]),
-                   z={k: float(v) for k, v in d["z"].items()}, scenario=int(d["scenario"]),
-                   phase_sd={k: float(v) for k, v in d["phase_sd"].items()},
-                   rate_hz=float(d["rate_hz"]), error=str(d["error"]),
-                   start=str(d.get("start", "rest")),
-                   multistable=bool(d.get("multistable", False)),
-                   steady_period=int(d.get("steady_period", 0)))
+                   z={k: _json_number(v) for k, v in _json_table(d["z"]).items()},
+                   scenario=int(_json_number(d["scenario"])),
+                   phase_sd={k: _json_number(v) for k, v in _json_table(d["phase_sd"]).items()},
+                   rate_hz=_json_number(d["rate_hz"]), error=_json_str(d["error"]),
+                   start=_json_str(d["start"]), multistable=_json_bool(d["multistable"]),
+                   steady_period=int(_json_number(d["steady_period"])))
+
+    @classmethod
+    def from_json_entry(cls, value: Any) -> EventSimulation | None:
+        """A cache entry's value checked: ``None`` for a run that failed (``{"failed": true}``),
+        else the simulation (``event_id`` empty: the caller's event is set on it). Raises
+        ValueError or TypeError for anything else, so that the cache rejects the entry."""
+        if isinstance(value, Mapping) and set(value) == {"failed"}:
+            if value["failed"] is not True:
+                raise ValueError("not an event simulation: 'failed' must be true")
+            return None
+        return cls.from_json("", value)
+
+
+_SIMULATION_KEYS = frozenset({"flow_gpm", "wob_klbf", "f_exc_hz", "sensor", "full", "z",
+                              "scenario", "phase_sd", "rate_hz", "error", "start",
+                              "multistable", "steady_period"})
+
+
+_FAILED_RUN: Any = object()
+"""What :func:`_cached_simulation` gives for a cached failed run (None is the cache's miss)."""
+
+
+def _cached_simulation(value: Any) -> Any:
+    """A cache entry's schema: an :class:`EventSimulation`, or :data:`_FAILED_RUN`."""
+    sim = EventSimulation.from_json_entry(value)
+    return _FAILED_RUN if sim is None else sim
+
+
+def _json_number(value: Any) -> float:
+    """A number of a JSON document (not a bool or a string), as a float."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"expected a number, got {type(value).__name__}")
+    return float(value)
+
+
+def _json_bool(value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise TypeError(f"expected true or false, got {type(value).__name__}")
+    return value
+
+
+def _json_str(value: Any) -> str:
+    if not isinstance(value, str):
+        raise TypeError(f"expected a string, got {type(value).__name__}")
+    return value
+
+
+def _json_table(value: Any) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise TypeError(f"expected a table, got {type(value).__name__}")
+    return value
 
 
 def sensor_groups(campaign: Campaign) -> dict[float, list[str]]:
@@ -233,12 +298,14 @@ def run_event(campaign: Campaign, event: Event, settings: RunSettings, *,
                                    accelerations_only=True,
                                    orbit_rate_hz=ORBIT_OVERSAMPLING * fine,
                                    orbit_replaces_window=True)
-    if warm_start is None:
-        return steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, **options)
-    settle = min(float(settings.cycles - settings.analyse_cycles), WARM_SETTLE_CYCLES)
-    warm = settings.with_changes(cycles=settings.analyse_cycles + settle)
-    return steady_run(warm, event.flow_gpm, wob_klbf=event.wob_klbf,
-                      initial_displacement=warm_start.state, **options)
+    start: dict[str, Any] = {}
+    if warm_start is not None:
+        settle = min(float(settings.cycles - settings.analyse_cycles), WARM_SETTLE_CYCLES)
+        settings = settings.with_changes(cycles=settings.analyse_cycles + settle)
+        start = dict(initial_displacement=warm_start.state)
+    with _naming_the_event(campaign, event):
+        return steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, **options,
+                          **start)
 
 
 def fine_series(r: SimulationResult, rate_hz: float, dofs: Iterable[int]
@@ -256,11 +323,30 @@ def fine_series(r: SimulationResult, rate_hz: float, dofs: Iterable[int]
     return t, {d: r.orbit.at(t, d) for d in dofs}
 
 
+@contextlib.contextmanager
+def _naming_the_event(campaign: Campaign, event: Event) -> Iterator[None]:
+    """A ValueError of a run (a flow or WOB the model cannot take) re-raised with the
+    campaign's file, the event's key and its id in front: the user edits that file."""
+    try:
+        yield
+    except ValueError as exc:
+        index = next((i for i, e in enumerate(campaign.events) if e is event), None)
+        text = str(exc)
+        field = ("flow_gpm" if text.startswith("flow_gpm") else
+                 "wob_klbf" if text.startswith("wob_klbf") else None)
+        key = "events" + (f"[{index}]" if index is not None else "") + (
+            f".{field}" if field else "")
+        where = (Path(campaign.root) / CAMPAIGN_FILE if campaign.root is not None
+                 else f"campaign {excerpt(campaign.name)}")
+        raise ValueError(f"{where}: key {key} (event {excerpt(event.id)}): {text}") from None
+
+
 def summary_event(campaign: Campaign, event: Event, settings: RunSettings) -> EventSimulation:
     """Peaks and impacts per cycle at full resolution from the core's own steady-window summary
     (20 kHz): no time series is stored, which makes a 9.5in run 10x cheaper. What a comparison
     with the dissertation's own simulations needs."""
-    r = steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="none")
+    with _naming_the_event(campaign, event):
+        r = steady_run(settings, event.flow_gpm, wob_klbf=event.wob_klbf, record="none")
     full: dict[str, Feature] = {}
     for name, s in campaign.sensors.items():
         peaks = r.window_peaks_g[:, s.dof - 1]
@@ -839,9 +925,9 @@ class CampaignEvaluator:
         key = self._cache_key(change, ev)
         if key is not None:
             assert self.cache is not None
-            hit = self.cache.get(key)
+            hit = self.cache.get(key, parse=_cached_simulation)
             if hit is not None:
-                return None if hit.get("failed") else EventSimulation.from_json(eid, hit)
+                return None if hit is _FAILED_RUN else replace(hit, event_id=eid)
         sim = self._simulate(change, eid)
         if key is not None:
             assert self.cache is not None
@@ -905,14 +991,15 @@ class CampaignEvaluator:
         define the compared keys."""
         eids = list(eids) if eids is not None else self.event_ids
         missing = [e for e in eids if e not in self.keys]
-        for e, fut in [(e, self._pool.submit(self._one, None, e)) for e in missing]:
-            self._cache[("base", e)] = fut.result()
-            self.n_evals += 1
-        todo = {(k, e): ch for k, ch in items for e in eids if (k, e) not in self._cache}
-        futures = {ke: self._pool.submit(self._one, ch, ke[1]) for ke, ch in todo.items()}
-        for ke, fut in futures.items():
-            self._cache[ke] = fut.result()
-            self.n_evals += 1
+        with stop_on_interrupt(self._pool):  # Ctrl-C stops the runs in the threads too
+            for e, fut in [(e, self._pool.submit(self._one, None, e)) for e in missing]:
+                self._cache[("base", e)] = result(fut)
+                self.n_evals += 1
+            todo = {(k, e): ch for k, ch in items for e in eids if (k, e) not in self._cache}
+            futures = {ke: self._pool.submit(self._one, ch, ke[1]) for ke, ch in todo.items()}
+            for ke, fut in futures.items():
+                self._cache[ke] = result(fut)
+                self.n_evals += 1
         return {(k, e): self._cache[(k, e)] for k, _ in items for e in eids}
 
     def base(self, eids: Sequence[str] | None = None) -> dict[str, EventEval]:

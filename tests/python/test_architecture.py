@@ -23,7 +23,7 @@ PACKAGE = Path(vadsim.__file__).resolve().parent
 
 LAYERS = {
     "vadsim._version": 0, "vadsim._checks": 0, "vadsim._aliases": 0, "vadsim._html": 0,
-    "vadsim._executors": 0, "vadsim._progress": 0,
+    "vadsim._executors": 0, "vadsim._progress": 0, "vadsim._interrupt": 0,
     "vadsim.data": 0,
     "vadsim._core": 0, "vadsim.model": 1, "vadsim.signals": 2, "vadsim.campaigns": 3,
     "vadsim.compare": 4, "vadsim.fit": 5, "vadsim.studies": 5, "vadsim.plots": 6,

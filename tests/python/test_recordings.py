@@ -586,13 +586,18 @@ def test_excerpt() -> None:
 
 
 LONG_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
+    # Lines beyond the line limit (RECORDINGS.md "Limits") are refused before parsing.
     ("csv-header-column", _csv_line(1, "time_s,x1_g," + "y" * HUGE),
-     ["e01.csv", "line 1", "unexpected column", f"({HUGE} characters)"]),
+     ["e01.csv", "line 1", "longer than 195 bytes"]),
     ("csv-first-column", _csv_line(1, "z" * HUGE + ",x1_g,x5_g"),
-     ["e01.csv", "line 1", "time_s", f"({HUGE} characters)"]),
-    ("csv-token", _csv_cell(7, 1, "q" * HUGE), ["e01.csv", "line 7", "x1_g", "non-numeric"]),
+     ["e01.csv", "line 1", "longer than 195 bytes"]),
+    ("csv-header-column-short", _csv_line(1, "time_s,x1_g," + "y" * 150),
+     ["e01.csv", "line 1", "unexpected column", "(150 characters)"]),
+    ("csv-token", _csv_cell(7, 1, "q" * HUGE), ["e01.csv", "line 7", "longer than"]),
+    ("csv-token-short", _csv_cell(7, 1, "q" * 100), ["e01.csv", "line 7", "x1_g",
+                                                     "non-numeric"]),
     # Also a long run of digits that is no number: the number check must fail quickly.
-    ("csv-digits", _csv_cell(7, 1, "1" * HUGE + "x"), ["e01.csv", "line 7", "x1_g"]),
+    ("csv-digits", _csv_cell(7, 1, "1" * HUGE + "x"), ["e01.csv", "line 7", "longer than"]),
     ("toml-bit", _toml_sub('bit = "CDE"', 'bit = "' + "X" * HUGE + '"'),
      ["campaign.toml", "line 3", "key bit", f"({HUGE} characters)"]),
     ("toml-name-array", _toml_sub('name = "base campaign"', "name = [" + "1," * HUGE + "]"),
@@ -601,7 +606,7 @@ LONG_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
      ["campaign.toml", "unknown key", f"({HUGE} characters)"]),
     ("toml-event-id", _toml_sub('id = "e01"\nflow_gpm = 200.0',
                                 'id = "' + "e" * HUGE + '"\nflow_gpm = 0'),
-     ["campaign.toml", "line 19", "events[0].flow_gpm", f"({HUGE} characters)"]),
+     ["campaign.toml", "line 18", "events[0].id", f"longer than 64 characters ({HUGE})"]),
     ("toml-number", _toml_sub("rate_hz = 1024", "rate_hz = " + "9" * 4000),
      ["campaign.toml", "line 8", "sensors.x1.rate_hz", "range", "(4000 characters)"]),
     ("toml-file", _toml_sub('file = "e01.csv"', 'file = "' + "f" * HUGE + '"'),
@@ -610,7 +615,7 @@ LONG_CASES: list[tuple[str, Callable[[Path], None], list[str]]] = [
      ["campaign.toml", "line 2", "key tool", f"({HUGE} characters)"]),
     # A header with a long run of blanks: the scan for line numbers must stay linear.
     ("toml-sensor-name", _toml_sub("[sensors.x5]", '[sensors."x' + " " * HUGE + '5"]'),
-     ["campaign.toml", "line 12", "sensors", f"({HUGE + 2} characters)"]),
+     ["campaign.toml", "line 12", "sensors", f"({HUGE + 2} characters)", "longer than 64"]),
 ]
 
 
@@ -765,9 +770,10 @@ def test_round_trip_awkward_text(tmp_path: Path) -> None:
     reference: dict[str, object] = {t: t for t in AWKWARD}
     reference |= {"": 1, "a.b": True, "x y": -0.0, "inf": math.inf, "big": 2**63 - 1}
     events = [Event("plain", 100.0, 4.0, file="plain.csv", data=data, reference=reference)]
-    events += [Event(f"id {i} {t}", 100.0 + i, 4.0, features={"x1_peak_mean_g": 1.0},
+    # names and ids within their limits (RECORDINGS.md "Limits"); the reference takes any text
+    events += [Event(f"id {i} {t}"[:64], 100.0 + i, 4.0, features={"x1_peak_mean_g": 1.0},
                      reference={"text": t}) for i, t in enumerate(AWKWARD)]
-    c = Campaign("\n".join(AWKWARD), "7in", "RC", None, {"x1": Sensor("x1", 1, 2.0, 250.0)},
+    c = Campaign("\n".join(AWKWARD)[:200], "7in", "RC", None, {"x1": Sensor("x1", 1, 2.0, 250.0)},
                  events, description="".join(AWKWARD))
     loaded = load_campaign(save_campaign(c, tmp_path / "c"))
     assert loaded == c

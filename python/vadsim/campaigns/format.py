@@ -33,6 +33,7 @@ first save and is stable afterwards.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,6 +53,19 @@ __all__ = [
     "Event",
     "Campaign",
     "excerpt",
+    "CsvLimits",
+    "csv_limits",
+    "MAX_TOML_BYTES",
+    "MAX_WOB_KLBF",
+    "MIN_LOWPASS_FRACTION",
+    "MAX_NAME_CHARS",
+    "MAX_ID_CHARS",
+    "MAX_DESCRIPTION_CHARS",
+    "MAX_EVENTS",
+    "MAX_SENSORS",
+    "MAX_RECORDING_S",
+    "MAX_SAMPLES",
+    "MAX_CSV_FIELD_BYTES",
 ]
 
 #: Tool presets the project knows by name. Kept as the single source of truth here until the
@@ -76,6 +90,77 @@ CAMPAIGN_FILE = "campaign.toml"
 
 #: How much of a file's text or a TOML value an error message quotes at most (characters).
 EXCERPT_CHARS = 80
+
+
+# --- limits on what a campaign brings (RECORDINGS.md "Limits") ------------------------------
+# A campaign folder may come from anyone. Each input is bounded before it is parsed, so that a
+# hostile or broken file costs a bounded amount of memory and time and fails with an error
+# naming the file and the limit, instead of growing the process until the kernel kills it.
+
+#: Largest weight on bit a campaign may state (klbf): field WOBs are tens of klbf; beyond this
+#: the model's static state leaves every physical range.
+MAX_WOB_KLBF = 1000.0
+
+#: Lowest anti-alias corner, as a fraction of the sensor's rate (``lowpass_hz >= rate_hz *
+#: this``): a corner far below that is no anti-alias filter, and one near zero cannot be
+#: designed (the filter's matrix is singular).
+MIN_LOWPASS_FRACTION = 1e-3
+
+#: Largest campaign.toml read (bytes): a campaign of a thousand events is a few hundred kB.
+MAX_TOML_BYTES = 1 << 20
+
+#: Longest campaign ``name`` (characters); it is drawn into every figure title.
+MAX_NAME_CHARS = 200
+
+#: Longest event ``id`` and sensor name (characters); they label tables and figure axes.
+MAX_ID_CHARS = 64
+
+#: Longest campaign ``description`` (characters).
+MAX_DESCRIPTION_CHARS = 20_000
+
+#: Most events in one campaign.
+MAX_EVENTS = 1000
+
+#: Most sensors in one campaign.
+MAX_SENSORS = 32
+
+#: Longest recording one event CSV may hold (s of samples at ``rate_hz``): an event is a
+#: steady operating point of seconds to minutes; an hour is a generous bound.
+MAX_RECORDING_S = 3600.0
+
+#: Most sample rows in one event CSV whatever the rate (8.4 million: 200 MB of float64 at
+#: three columns).
+MAX_SAMPLES = 1 << 23
+
+#: Longest CSV cell (bytes, padding included): a float64 written in full
+#: (``-1.2345678901234567e-308``) takes 24.
+MAX_CSV_FIELD_BYTES = 64
+
+
+@dataclass(frozen=True)
+class CsvLimits:
+    """What one event CSV may hold, from its sensors' rate and its column count.
+
+    Attributes
+    ----------
+    max_rows : int
+        Sample rows: ``rate_hz * MAX_RECORDING_S``, at most :data:`MAX_SAMPLES`.
+    max_line_bytes : int
+        Bytes of one line, its end excluded: ``columns * (MAX_CSV_FIELD_BYTES + 1)``.
+    max_bytes : int
+        Bytes of the whole file: the header and ``max_rows`` lines of the longest kind.
+    """
+
+    max_rows: int
+    max_line_bytes: int
+    max_bytes: int
+
+
+def csv_limits(rate_hz: float, columns: int) -> CsvLimits:
+    """The :class:`CsvLimits` of an event CSV of ``columns`` columns sampled at ``rate_hz``."""
+    rows = int(min(MAX_SAMPLES, max(2.0, math.floor(rate_hz * MAX_RECORDING_S))))
+    line = columns * (MAX_CSV_FIELD_BYTES + 1)
+    return CsvLimits(max_rows=rows, max_line_bytes=line, max_bytes=(rows + 1) * (line + 2))
 
 
 def excerpt(value: object, limit: int = EXCERPT_CHARS) -> str:

@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import os
 import re
@@ -15,16 +13,22 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
-import pandas as pd
 
+from vadsim.campaigns.event_csv import open_regular, read_event_csv, time_problem
 from vadsim.campaigns.format import (
     CAMPAIGN_FILE,
     EXCERPT_CHARS,
     FEATURES,
     KNOWN_BITS,
     KNOWN_TOOLS,
-    RATE_TOLERANCE,
-    TIME_RESOLUTION_S,
+    MAX_DESCRIPTION_CHARS,
+    MAX_EVENTS,
+    MAX_ID_CHARS,
+    MAX_NAME_CHARS,
+    MAX_SENSORS,
+    MAX_TOML_BYTES,
+    MAX_WOB_KLBF,
+    MIN_LOWPASS_FRACTION,
     Campaign,
     CampaignError,
     ClippedSamplesWarning,
@@ -42,19 +46,6 @@ _EVENT_KEYS = ("id", "flow_gpm", "wob_klbf", "file", "features", "reference")
 # TOML's bare-key alphabet. Sensor names become CSV column prefixes and TOML keys; restricting
 # them to it keeps both unambiguous without quoting rules.
 _BARE_KEY_RE = re.compile(r"[A-Za-z0-9_-]+")
-# A decimal number as the CSV cells hold it. ASCII only: in Python `\d` and `\s` also match
-# other scripts' digits and spaces, and float() would read '١٢٣' as 123. Written without
-# overlapping repeats so a long token fails in linear time.
-_NUMBER_RE = re.compile(r"\s*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*",
-                        re.ASCII)
-# Tokens pandas reads as missing values; named as such rather than as "non-numeric".
-_NA_TOKENS = frozenset(
-    {"", "nan", "+nan", "-nan", "na", "n/a", "null", "none", "#n/a", "#na", "<na>",
-     "-1.#ind", "1.#ind", "-1.#qnan", "1.#qnan", "#n/a n/a"}
-)
-_INF_TOKENS = frozenset({"inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"})
-_LINE_SPLIT_RE = re.compile(r"\r\n|\r|\n")
-_LINE_SPLIT_BYTES_RE = re.compile(rb"\r\n|\r|\n")
 
 # --------------------------------------------------------------------------------------------
 # TOML key -> line lookup. tomllib returns plain dicts without positions, yet a line number is
@@ -178,7 +169,7 @@ def _type_name(value: object) -> str:
 
 
 def _get_str(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
-             required: bool = True, label: str = "") -> str | None:
+             required: bool = True, label: str = "", limit: int | None = None) -> str | None:
     key = str(path[-1])
     if key not in table:
         if required:
@@ -189,6 +180,9 @@ def _get_str(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, 
         ctx.fail(path, f"must be a string, got {_type_name(value)} {excerpt(value)}", label)
     if not value.strip():
         ctx.fail(path, "must not be empty", label)
+    if limit is not None and len(value) > limit:
+        ctx.fail(path, f"longer than {limit} characters ({len(value)}), the limit for this key",
+                 label)
     return value
 
 
@@ -218,6 +212,16 @@ def _get_positive(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | 
     if number is not None and number <= 0:
         ctx.fail(path, f"must be > 0, got {excerpt(table[str(path[-1])])}", label)
     return number
+
+
+def _get_wob(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
+             label: str = "") -> float | None:
+    """An optional weight on bit: > 0 and at most :data:`MAX_WOB_KLBF`."""
+    wob = _get_positive(ctx, table, path, required=False, label=label)
+    if wob is not None and wob > MAX_WOB_KLBF:
+        ctx.fail(path, f"must be at most {MAX_WOB_KLBF:g} klbf (a stated limit: field weights "
+                 f"on bit are tens of klbf), got {wob:g}", label)
+    return wob
 
 
 def _check_keys(ctx: TomlContext, table: Mapping[str, Any], path: tuple[str | int, ...],
@@ -298,7 +302,7 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None,
     ``allow_outside`` lets that file lie outside ``root`` (see :func:`campaign_path`).
     """
     _check_keys(ctx, doc, (), _TOP_KEYS)
-    name = _get_str(ctx, doc, ("name",))
+    name = _get_str(ctx, doc, ("name",), limit=MAX_NAME_CHARS)
     tool = _get_str(ctx, doc, ("tool",))
     bit = _get_str(ctx, doc, ("bit",))
     assert name is not None and tool is not None and bit is not None
@@ -312,11 +316,14 @@ def parse_document(doc: Mapping[str, Any], ctx: TomlContext, root: Path | None,
         if preset_file is None:
             ctx.fail(("tool",), f"unknown tool {excerpt(tool)}: neither a known preset "
                      f"({', '.join(KNOWN_TOOLS)}) nor an existing preset file in {root}")
-    wob_default = _get_positive(ctx, doc, ("wob_klbf",), required=False)
+    wob_default = _get_wob(ctx, doc, ("wob_klbf",))
     description = ""
     if "description" in doc:
         if not isinstance(doc["description"], str):
             ctx.fail(("description",), f"must be a string, got {_type_name(doc['description'])}")
+        if len(doc["description"]) > MAX_DESCRIPTION_CHARS:
+            ctx.fail(("description",), f"longer than {MAX_DESCRIPTION_CHARS} characters "
+                     f"({len(doc['description'])}), the limit for this key")
         description = doc["description"]
 
     sensors = _parse_sensors(ctx, doc)
@@ -334,9 +341,14 @@ def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor
         ctx.fail(("sensors",), f"must be a table, got {_type_name(table)}")
     if not table:
         ctx.fail(("sensors",), "at least one sensor is required")
+    if len(table) > MAX_SENSORS:
+        ctx.fail(("sensors",), f"{len(table)} sensors, more than the limit of {MAX_SENSORS}")
     sensors: dict[str, Sensor] = {}
     for sname, spec in table.items():
         path: tuple[str | int, ...] = ("sensors", sname)
+        if len(sname) > MAX_ID_CHARS:
+            ctx.fail(path, f"sensor name {excerpt(sname)} is longer than "
+                     f"{MAX_ID_CHARS} characters, the limit for a sensor name")
         if not _BARE_KEY_RE.fullmatch(sname):
             ctx.fail(path, "sensor names may only use letters, digits, '_' and '-'")
         if not isinstance(spec, dict):
@@ -354,6 +366,11 @@ def _parse_sensors(ctx: TomlContext, doc: Mapping[str, Any]) -> dict[str, Sensor
         range_g = _get_positive(ctx, spec, path + ("range_g",))
         lowpass = _get_positive(ctx, spec, path + ("lowpass_hz",), required=False)
         assert rate is not None and range_g is not None
+        if lowpass is not None and lowpass < rate * MIN_LOWPASS_FRACTION:
+            ctx.fail(path + ("lowpass_hz",),
+                     f"must be at least rate_hz / {1 / MIN_LOWPASS_FRACTION:g} = "
+                     f"{rate * MIN_LOWPASS_FRACTION:g} Hz (an anti-alias corner), got "
+                     f"{lowpass:g}")
         if lowpass is not None and lowpass >= rate / 2:
             ctx.fail(path + ("lowpass_hz",),
                      f"must be below the Nyquist frequency rate_hz/2 = {rate / 2:g} Hz, "
@@ -372,13 +389,15 @@ def _parse_events(ctx: TomlContext, doc: Mapping[str, Any], sensors: Mapping[str
         ctx.fail(("events",), f"must be an array of tables ([[events]]), got {_type_name(items)}")
     if not items:
         ctx.fail(("events",), "at least one event is required")
+    if len(items) > MAX_EVENTS:
+        ctx.fail(("events",), f"{len(items)} events, more than the limit of {MAX_EVENTS}")
     events: list[Event] = []
     first_index: dict[str, int] = {}
     for i, spec in enumerate(items):
         path: tuple[str | int, ...] = ("events", i)
         if not isinstance(spec, dict):
             ctx.fail(path, f"must be a table, got {_type_name(spec)}")
-        event_id = _get_str(ctx, spec, path + ("id",))
+        event_id = _get_str(ctx, spec, path + ("id",), limit=MAX_ID_CHARS)
         assert event_id is not None
         label = f" (event {excerpt(event_id)})"
         _check_keys(ctx, spec, path, _EVENT_KEYS, label)
@@ -387,7 +406,7 @@ def _parse_events(ctx: TomlContext, doc: Mapping[str, Any], sensors: Mapping[str
                      f"events[{first_index[event_id]}]", label)
         first_index[event_id] = i
         flow = _get_positive(ctx, spec, path + ("flow_gpm",), label=label)
-        wob = _get_positive(ctx, spec, path + ("wob_klbf",), required=False, label=label)
+        wob = _get_wob(ctx, spec, path + ("wob_klbf",), label)
         if wob is None:
             if wob_default is None:
                 ctx.fail(path + ("wob_klbf",), "missing, and the campaign has no default "
@@ -454,155 +473,6 @@ def _parse_reference(ctx: TomlContext, spec: Mapping[str, Any], path: tuple[str 
 # Event CSVs
 
 
-def time_problem(t: np.ndarray, rate_hz: float) -> tuple[int, str] | None:
-    """First sample index whose time breaks monotonicity or the uniform grid, with the reason.
-
-    The grid is anchored at the first sample: sample i must sit within
-    ``RATE_TOLERANCE * i * dt + min(TIME_RESOLUTION_S, dt/100)`` of ``t0 + i * dt`` (a clock
-    good to 1e-6 relative, printed with 7 decimals); dt/100 keeps a dropped sample visible at
-    rates where 1e-7 s would be a sizeable part of the period.
-    """
-    steps = np.diff(t)
-    bad = np.flatnonzero(~(steps > 0))
-    if bad.size:
-        k = int(bad[0]) + 1
-        return k, (f"time_s = {float(t[k])!r} s does not increase strictly (previous sample "
-                   f"{float(t[k - 1])!r} s)")
-    dt = 1.0 / rate_hz
-    idx = np.arange(t.size, dtype=np.float64)
-    expected = t[0] + idx * dt
-    with np.errstate(over="ignore", invalid="ignore"):
-        dev = np.abs(t - expected)
-        tol = (RATE_TOLERANCE * idx * dt + min(TIME_RESOLUTION_S, dt / 100)
-               + 4 * np.finfo(np.float64).eps * np.abs(t))
-        bad = np.flatnonzero(~(dev <= tol))
-    if bad.size:
-        k = int(bad[0])
-        msg = (f"time_s = {float(t[k])!r} s is off the uniform {rate_hz:g} Hz grid started "
-               f"at {float(t[0])!r} s: expected {float(expected[k]):.9g} s (deviation "
-               f"{dev[k]:.3g} s, tolerance {tol[k]:.3g} s)")
-        if k == 1:
-            msg += f"; the first step {steps[0]:.9g} s means {1 / steps[0]:.9g} Hz"
-        return k, msg
-    return None
-
-
-def _diagnose_rows(text: str, columns: list[str]) -> tuple[int, str] | None:
-    """Slow line-by-line scan for the first malformed data line (only run after a failure)."""
-    lines = _LINE_SPLIT_RE.split(text)
-    for lineno, line in enumerate(lines[1:], start=2):
-        fields = line.split(",")
-        if len(fields) != len(columns):
-            return lineno, f"expected {len(columns)} comma-separated fields, found {len(fields)}"
-        for col, token in zip(columns, fields, strict=True):
-            low = token.strip().lower()
-            if low in _NA_TOKENS:
-                return lineno, f"column {excerpt(col)}: missing value or NaN ({excerpt(token)})"
-            if low in _INF_TOKENS:
-                return lineno, f"column {excerpt(col)}: infinite value ({excerpt(token)})"
-            if not _NUMBER_RE.fullmatch(token):
-                return lineno, f"column {excerpt(col)}: non-numeric value {excerpt(token)}"
-            if not math.isfinite(float(token)):
-                return lineno, (f"column {excerpt(col)}: value out of float range "
-                                f"({excerpt(token)})")
-    return None
-
-
-def _check_header(header: list[str], expected: list[str], where: str) -> None:
-    """The header names ``time_s`` first and each declared sensor's column exactly once."""
-    wanted = excerpt(",".join(expected))
-    if header[0] != "time_s":
-        raise CampaignError(f"{where}, line 1: the first column must be 'time_s', found "
-                            f"{excerpt(header[0])} (expected header {wanted})")
-    for j, col in enumerate(header):
-        if col in header[:j]:
-            raise CampaignError(f"{where}, line 1: column {excerpt(col)} appears twice")
-        if col not in expected:
-            sensor = col[:-2] if col.endswith("_g") else None
-            why = (f"no sensor {excerpt(sensor)} is declared" if sensor
-                   else "sensor columns are named <sensor>_g")
-            raise CampaignError(f"{where}, line 1: unexpected column {excerpt(col)} ({why}; "
-                                f"expected columns {wanted})")
-    for col in expected:
-        if col not in header:
-            raise CampaignError(f"{where}, line 1: missing column {excerpt(col)} for sensor "
-                                f"{excerpt(col[:-2])} declared in {CAMPAIGN_FILE}")
-
-
-def _read_event_csv(path: Path, sensors: Mapping[str, Sensor],
-                    where: str) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
-    """Read and validate one event CSV; return the samples and the clipping masks.
-
-    ``where`` starts every error message (the file as the campaign names it, and the event).
-    """
-    expected = ["time_s"] + [s.column for s in sensors.values()]
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise CampaignError(f"{where}: cannot read: {exc.strerror or exc}") from None
-    # Trailing blank lines are harmless; dropping them keeps "data row i = line i + 2".
-    raw = raw.rstrip(b" \t\r\n")
-    if not raw.strip():
-        raise CampaignError(f"{where}, line 1: empty file; expected the header "
-                            f"{excerpt(','.join(expected))}")
-    head_and_body = _LINE_SPLIT_BYTES_RE.split(raw, maxsplit=1)
-    try:
-        # Only the header is decoded up front: pandas parses the bytes faster than a str.
-        header_text = head_and_body[0].decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise CampaignError(f"{where}, line 1: not valid UTF-8 text") from None
-    header = [h.strip() for h in header_text.split(",")]
-    _check_header(header, expected, where)
-    if len(head_and_body) < 2:
-        raise CampaignError(f"{where}, line 2: no samples after the header")
-
-    frame = None
-    try:
-        with warnings.catch_warnings():
-            # A first data row longer than the header only warns in pandas; here it is an error.
-            warnings.simplefilter("error", pd.errors.ParserWarning)
-            warnings.simplefilter("ignore", pd.errors.DtypeWarning)
-            frame = pd.read_csv(
-                io.BytesIO(raw), header=None, skiprows=1, names=header, index_col=False,
-                skip_blank_lines=False, quoting=csv.QUOTE_NONE, engine="c",
-            )
-    except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, OverflowError):
-        frame = None
-    values = None
-    if frame is not None and all(frame[c].dtype.kind in "fiu" for c in expected):
-        values = frame[expected].to_numpy(dtype=np.float64)
-        if not np.isfinite(values).all():
-            values = None
-    if values is None:
-        try:
-            text = raw.decode("utf-8-sig")
-        except UnicodeDecodeError as exc:
-            line = len(_LINE_SPLIT_BYTES_RE.split(raw[: exc.start]))
-            raise CampaignError(f"{where}, line {line}: not valid UTF-8 text") from None
-        problem = _diagnose_rows(text, header)
-        if problem is not None:
-            raise CampaignError(f"{where}, line {problem[0]}: {problem[1]}")
-        # Every token is a finite decimal number, yet pandas balked (e.g. integers beyond
-        # 64 bits): parse in Python, slow but exact, rather than reject a valid file.
-        rows = _LINE_SPLIT_RE.split(text)[1:]
-        table = np.array([[float(tok) for tok in row.split(",")] for row in rows],
-                         dtype=np.float64).reshape(len(rows), len(header))
-        values = table[:, [header.index(c) for c in expected]]
-    if values.shape[0] < 2:
-        raise CampaignError(f"{where}, line {values.shape[0] + 2}: at least 2 samples are "
-                            f"needed to check the sampling rate, found {values.shape[0]}")
-
-    rate = next(iter(sensors.values())).rate_hz
-    problem = time_problem(values[:, 0], rate)
-    if problem is not None:
-        raise CampaignError(f"{where}, line {problem[0] + 2}: {problem[1]}")
-
-    data = pd.DataFrame(values, columns=expected)
-    clipped = {s.name: np.abs(values[:, j + 1]) >= s.range_g
-               for j, s in enumerate(sensors.values())}
-    return data, clipped
-
-
 # --------------------------------------------------------------------------------------------
 # Public entry points
 
@@ -615,10 +485,13 @@ def load_campaign(path: str | Path, *, allow_outside: bool = False) -> Campaign:
     path : str or pathlib.Path
         The campaign folder (holding ``campaign.toml``) or the TOML file itself.
     allow_outside : bool
-        Let event CSVs and a preset-file ``tool`` lie outside the campaign folder. By default
-        a campaign may only read files inside its folder (real paths compared, so ``..``,
-        absolute paths and symbolic links leading out are refused); the flag is kept on the
-        returned campaign for :func:`~vadsim.campaigns.resolve.campaign_preset`.
+        Let ``campaign.toml`` itself, event CSVs and a preset-file ``tool`` lie outside the
+        campaign folder. By default a campaign may only read files inside its folder (real
+        paths compared, so ``..``, absolute paths and symbolic links leading out are refused);
+        the flag is kept on the returned campaign for
+        :func:`~vadsim.campaigns.resolve.campaign_preset`. Every file read must be a regular
+        file within the limits of RECORDINGS.md (sizes, line lengths, rows), checked before
+        it is parsed; the CSVs are parsed in chunks.
 
     Returns
     -------
@@ -644,22 +517,48 @@ def load_campaign(path: str | Path, *, allow_outside: bool = False) -> Campaign:
         is_dir = False
     toml_path = path / CAMPAIGN_FILE if is_dir else path
     root = toml_path.parent
+    text = _read_toml_text(toml_path, root, is_dir, allow_outside)
+    doc = _parse_toml(toml_path, text)
+    ctx = TomlContext(toml_path, text)
+    campaign = parse_document(doc, ctx, root, allow_outside)
+    for i, event in enumerate(campaign.events):
+        if event.file is not None:
+            _load_event_data(ctx, campaign, i, root, allow_outside)
+    return campaign
+
+
+def _read_toml_text(toml_path: Path, root: Path, is_dir: bool, allow_outside: bool) -> str:
+    """The text of a campaign.toml: confined to its folder like every file a campaign names
+    (a symlink leading out is refused unless ``allow_outside``), a regular file of at most
+    :data:`~vadsim.campaigns.format.MAX_TOML_BYTES`, UTF-8."""
     try:
-        raw = toml_path.read_bytes()
-    except FileNotFoundError:
+        exists = toml_path.exists() or toml_path.is_symlink()
+    except (OSError, ValueError):
+        exists = False
+    if not exists:
         if is_dir:
             raise CampaignError(f"{toml_path}: missing; a campaign folder must hold "
-                                f"{CAMPAIGN_FILE}") from None
-        raise CampaignError(f"{toml_path}: no such campaign folder or file") from None
-    except (OSError, ValueError) as exc:
-        raise CampaignError(f"{toml_path}: cannot read: {exc}") from None
+                                f"{CAMPAIGN_FILE}")
+        raise CampaignError(f"{toml_path}: no such campaign folder or file")
     try:
-        text = raw.decode("utf-8-sig")
+        real = campaign_path(root, toml_path.name, allow_outside)
+    except CampaignPathError as exc:
+        raise CampaignError(f"{toml_path}: {exc}") from None
+    with open_regular(real, str(toml_path), MAX_TOML_BYTES, "a campaign file") as f:
+        raw = f.read(MAX_TOML_BYTES + 1)
+    if len(raw) > MAX_TOML_BYTES:  # it grew since it was measured
+        raise CampaignError(f"{toml_path}: larger than the limit of {MAX_TOML_BYTES} bytes "
+                            "for a campaign file")
+    try:
+        return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         raise CampaignError(f"{toml_path}, line {line}: not valid UTF-8 text") from None
+
+
+def _parse_toml(toml_path: Path, text: str) -> dict[str, Any]:
     try:
-        doc = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         msg = str(exc)
         if "line" not in msg:
@@ -672,33 +571,35 @@ def load_campaign(path: str | Path, *, allow_outside: bool = False) -> Campaign:
         raise CampaignError(f"{toml_path}: TOML value cannot be read: {excerpt(str(exc))}"
                             ) from None
 
-    ctx = TomlContext(toml_path, text)
-    campaign = parse_document(doc, ctx, root, allow_outside)
-    for i, event in enumerate(campaign.events):
-        if event.file is None:
-            continue
-        label = f" (event {excerpt(event.id)})"
-        try:
-            # The checked real path is what is read, not the name resolved again later.
-            csv_path = campaign_path(root, event.file, allow_outside)
-        except CampaignPathError as exc:
-            ctx.fail(("events", i, "file"), str(exc), label)
-        shown = (root / event.file if len(event.file) <= EXCERPT_CHARS
-                 else f"{root}{os.sep}{excerpt(event.file)}")
-        try:
-            exists = csv_path.is_file()
-        except (OSError, ValueError):
-            exists = False
-        if not exists:
-            ctx.fail(("events", i, "file"), f"CSV file not found: {shown}", label)
-        event.data, event.clipped = _read_event_csv(csv_path, campaign.sensors,
-                                                    f"{shown}{label}")
-        if event.n_clipped:
-            per_sensor = ", ".join(f"{name}: {int(np.count_nonzero(m))}"
-                                   for name, m in event.clipped.items() if m.any())
-            warnings.warn(
-                f"{shown}{label}: {event.n_clipped} samples at or beyond the sensor range "
-                f"({per_sensor}); flagged in Event.clipped, do not trust their values",
-                ClippedSamplesWarning, stacklevel=2,
-            )
-    return campaign
+
+def _load_event_data(ctx: TomlContext, campaign: Campaign, i: int, root: Path,
+                     allow_outside: bool) -> None:
+    """Read event ``i``'s CSV into ``data`` and ``clipped`` (warning of clipped samples)."""
+    event = campaign.events[i]
+    assert event.file is not None
+    label = f" (event {excerpt(event.id)})"
+    try:
+        # The checked real path is what is read, not the name resolved again later.
+        csv_path = campaign_path(root, event.file, allow_outside)
+    except CampaignPathError as exc:
+        ctx.fail(("events", i, "file"), str(exc), label)
+    shown = (root / event.file if len(event.file) <= EXCERPT_CHARS
+             else f"{root}{os.sep}{excerpt(event.file)}")
+    try:
+        exists, regular = csv_path.exists(), csv_path.is_file()
+    except (OSError, ValueError):
+        exists = regular = False
+    if not exists:
+        ctx.fail(("events", i, "file"), f"CSV file not found: {shown}", label)
+    if not regular:
+        ctx.fail(("events", i, "file"), f"{shown} is not a regular file (a folder, a pipe or "
+                 "a device); a campaign reads regular files only", label)
+    event.data, event.clipped = read_event_csv(csv_path, campaign.sensors, f"{shown}{label}")
+    if event.n_clipped:
+        per_sensor = ", ".join(f"{name}: {int(np.count_nonzero(m))}"
+                               for name, m in event.clipped.items() if m.any())
+        warnings.warn(
+            f"{shown}{label}: {event.n_clipped} samples at or beyond the sensor range "
+            f"({per_sensor}); flagged in Event.clipped, do not trust their values",
+            ClippedSamplesWarning, stacklevel=3,
+        )

@@ -40,6 +40,7 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
     )
     _add_campaign_argument(va)
     _add_report_options(va, "validation")
+    _add_cache_option(va)
     va.set_defaults(func=_cmd_validate)
     _add_calibrate(sub, parents)
     _add_diagnose(sub, parents)
@@ -67,6 +68,13 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
                     help="score the campaigns already diagnosed in OUT and run nothing (e.g. "
                     "while a long run is stopped); the scores say how many they cover")
     bl.set_defaults(func=_cmd_blind)
+
+
+def _add_cache_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--cache", metavar="DIR", default=None,
+                   help="keep every measured run in DIR and read the ones a previous "
+                   "diagnosis, calibration or validation made (default: $VADSIM_CACHE if "
+                   "set, else none); a run is reused only with the same inputs and code")
 
 
 def _add_report_options(p: argparse.ArgumentParser, folder: str) -> None:
@@ -143,10 +151,7 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
     dg.add_argument("--json", action="store_true",
                     help="print one JSON object (missing_physics, parameters, located, "
                     "heldout_error_before/after, ranking); progress goes to stderr")
-    dg.add_argument("--cache", metavar="DIR", default=None,
-                    help="keep every measured run in DIR and read the ones a previous "
-                    "diagnosis, calibration or validation made (default: $VADSIM_CACHE if "
-                    "set, else none); a run is reused only with the same inputs and code")
+    _add_cache_option(dg)
     dg.add_argument("--candidates", nargs="+", default=None,
                     help="candidate ids to try (default: all)")
     dg.add_argument("--predict", metavar="CAMPAIGN",
@@ -188,13 +193,15 @@ def _add_campaign_argument(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    # read (and refuse) the campaign before the fitting and report modules are imported
+    campaign = _campaign(args)
     from vadsim.fit.validate import validate
     from vadsim.report.validation import write_validation_report
 
-    t0 = time.perf_counter()
-    res = validate(_campaign(args), overrides=parse_overrides(args.set),
+    res = validate(campaign, overrides=parse_overrides(args.set),
                    cycles=args.cycles, analyse_cycles=args.analyse, workers=args.workers,
-                   progress=not args.quiet)
+                   progress=not args.quiet, cache=args.cache)
     cmd = "vadsim validate " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else None
     path = write_validation_report(res, args.out, fmt=args.format, command=cmd)
     z = res.residuals

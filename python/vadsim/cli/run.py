@@ -14,6 +14,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING, Any
 
+from vadsim._interrupt import result, stop_on_interrupt
 from vadsim.cli.common import (
     DEFAULT_PRESET,
     Parents,
@@ -160,8 +161,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     workers = max(1, min(args.workers, len(flows)))
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        results = list(pool.map(one, flows))
+    with ThreadPoolExecutor(max_workers=workers) as pool, stop_on_interrupt(pool):
+        results = [result(f) for f in [pool.submit(one, q) for q in flows]]
     elapsed = time.perf_counter() - t0
     rows = [_row(r) for r in results]
     if args.json:

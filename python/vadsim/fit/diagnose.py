@@ -48,7 +48,6 @@ import os
 import textwrap
 import time
 from collections.abc import Callable, Collection, Mapping, Sequence
-from concurrent.futures import as_completed
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -57,6 +56,7 @@ import pandas as pd
 
 from vadsim._executors import dask_pool, local_processes
 from vadsim._html import grid_table, key_value_table
+from vadsim._interrupt import finished
 from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, EventEval, WarmStart
@@ -701,19 +701,20 @@ def _fit_all(ctx: _Context, jobs: list[_Job], ev: CampaignEvaluator,
     # model-side candidates first: they take longest
     order = sorted(range(len(jobs)),
                    key=lambda i: jobs[i].hyp.candidates[-1].side != "model")
-    pool, close, _slots = (dask_pool(ctx.scheduler) if ctx.scheduler
-                           else local_processes(min(ev.workers, len(jobs))))
+    pool = (dask_pool(ctx.scheduler) if ctx.scheduler
+            else local_processes(min(ev.workers, len(jobs))))
     out: dict[int, HypothesisFit] = {}
     try:
-        futures = {pool.submit(_fit_task, ctx, jobs[i]): i for i in order}
-        for fut in as_completed(futures):
-            f = fut.result()
-            out[futures[fut]] = f
-            ev.n_evals += f.n_evals
-            tick()
-            say(f"{f.key}: held-out RMS {f.heldout_rms:.3f}, score {f.score:.1f}")
+        with pool.guard():
+            futures = {pool.executor.submit(_fit_task, ctx, jobs[i]): i for i in order}
+            for fut in finished(futures):
+                f = fut.result()
+                out[futures[fut]] = f
+                ev.n_evals += f.n_evals
+                tick()
+                say(f"{f.key}: held-out RMS {f.heldout_rms:.3f}, score {f.score:.1f}")
     finally:
-        close()
+        pool.close()
     return [out[i] for i in range(len(jobs))]
 
 

@@ -18,21 +18,25 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor, as_completed
-from dataclasses import dataclass
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, replace
 from typing import Any
 
 import pandas as pd
 
+from vadsim._interrupt import finished, stop_on_interrupt
 from vadsim._progress import bar
-from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
+from vadsim.campaigns import Campaign, Event, campaign_preset, load_any_campaign
 from vadsim.compare import (
+    FOLDED,
     EventSimulation,
     Measurement,
     event_residuals,
+    fine_rate_hz,
     recorded_features,
     simulate_event,
 )
+from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.presets import Preset
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
@@ -122,12 +126,16 @@ def validate(
     measurement: Measurement | None = None,
     settings: RunSettings | None = None,
     progress: bool = True,
+    cache: ResultCache | str | os.PathLike[str] | bool | None = None,
 ) -> ValidationResult:
     """Simulate every event of a campaign (in parallel threads) and compare features.
 
     The base model is ``settings``, or the campaign's preset (or ``preset``) with
     ``overrides``, ``extras``, ``law``, ``cycles`` and ``analyse_cycles``. ``progress``
-    shows a progress bar over the events (stderr).
+    shows a progress bar over the events (stderr). ``cache``: a
+    :class:`~vadsim.model.cache.ResultCache` or its folder for each event's simulation (None:
+    ``$VADSIM_CACHE`` if set, as for calibrate and diagnose; False: none); runs with a
+    ``measurement`` are not cached.
 
     Returns
     -------
@@ -140,11 +148,16 @@ def validate(
         settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},
                                extras=tuple(extras), law=law, cycles=cycles,
                                analyse_cycles=analyse_cycles)
-    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
-        futures = {ev.id: pool.submit(simulate_event, camp, ev, settings,
-                                      measurement=measurement) for ev in camp.events}
+    store = default_cache(cache) if measurement is None else None
+
+    def one(ev: Event) -> EventSimulation:
+        return _simulate_cached(store, camp, ev, settings, measurement)
+
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool, \
+            stop_on_interrupt(pool):
+        futures = {ev.id: pool.submit(one, ev) for ev in camp.events}
         with bar(progress, len(futures), f"validate {camp.name}", "event") as b:
-            for f in as_completed(futures.values()):
+            for f in finished(futures.values()):
                 f.result()
                 b.update()
         sims = {k: f.result() for k, f in futures.items()}
@@ -159,6 +172,28 @@ def validate(
         residuals_full=res_full.reindex(order),
         settings={k: described[k] for k in ("cycles", "analyse_cycles", "law", "extras")},
     )
+
+
+def _simulate_cached(store: ResultCache | None, camp: Campaign, ev: Event,
+                     settings: RunSettings, measurement: Measurement | None) -> EventSimulation:
+    """:func:`~vadsim.compare.simulate_event`, read from and written to ``store`` if any."""
+    key = None
+    if store is not None:
+        try:
+            key = store.key("validate-event", settings, ev.flow_gpm, float(ev.wob_klbf),
+                            fine_rate_hz(camp), camp.sensors, FOLDED)
+        except (Uncacheable, ValueError):
+            key = None
+    if key is not None:
+        assert store is not None
+        hit = store.get(key, parse=EventSimulation.from_json_entry)
+        if isinstance(hit, EventSimulation):
+            return replace(hit, event_id=ev.id)
+    sim = simulate_event(camp, ev, settings, measurement=measurement)
+    if key is not None:
+        assert store is not None
+        store.put(key, sim.to_json())
+    return sim
 
 
 def findings(result: ValidationResult, threshold: float = 1.0) -> list[str]:

@@ -10,7 +10,10 @@ bit, and any change to the code or the inputs is a miss.
 
 Values are JSON (numbers written exactly, ``repr`` round-trips a float), compressed, with a
 checksum: a folder is never a way to run code (no pickle), and a damaged or foreign file is a
-miss, removed, never a wrong result.
+miss, removed, never a wrong result. The folder itself is not trusted either: an entry is read
+only as a regular file inside it (a link, a folder, a device or a pipe in its place is a miss),
+with a size cap on disk and inflated (:data:`MAX_ENTRY_BYTES`), and checked against the
+reader's schema after its checksum (``get(key, parse=...)``); whatever fails is removed.
 
 Opt-in: pass a folder (``cache=`` in :func:`vadsim.diagnose`, ``--cache DIR`` on the CLI) or
 set ``VADSIM_CACHE=DIR``. The folder may be deleted at any time.
@@ -25,22 +28,80 @@ import hashlib
 import json
 import math
 import os
+import shutil
+import stat
 import tempfile
 import threading
+import warnings
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["ENV_VAR", "ResultCache", "Uncacheable", "canonical", "code_fingerprint",
-           "default_cache"]
+__all__ = ["ENV_VAR", "MAX_ENTRY_BYTES", "CacheWarning", "ResultCache", "Uncacheable",
+           "canonical", "code_fingerprint", "default_cache"]
 
 ENV_VAR = "VADSIM_CACHE"
 """Environment variable naming the cache folder used when none is passed."""
 
 _MAGIC = b"vadsim-cache-1\n"
+
+MAX_ENTRY_BYTES = 64 << 20
+"""Largest cache entry read, on disk and inflated (bytes); an event's measured run is a few kB."""
+
+
+class CacheWarning(UserWarning):
+    """A result could not be stored in the cache (it is computed again next time)."""
+
+
+def _read_entry(path: Path) -> bytes:
+    """An entry's bytes: a regular file (links are not followed, a FIFO is not waited on) in a
+    shard folder that is no link, of at most :data:`MAX_ENTRY_BYTES`; else OSError or
+    ValueError. FileNotFoundError only when there is no entry at all."""
+    if path.parent.is_symlink():
+        raise ValueError("the shard folder is a link")
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0)
+    fd = os.open(path, flags | getattr(os, "O_CLOEXEC", 0))
+    with os.fdopen(fd, "rb", buffering=0) as f:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise ValueError("not a regular file")
+        if st.st_size > MAX_ENTRY_BYTES:
+            raise ValueError("over the size cap")
+        blob = f.read(MAX_ENTRY_BYTES + 1)
+    if len(blob) > MAX_ENTRY_BYTES:
+        raise ValueError("over the size cap")
+    return blob
+
+
+def _is_regular(path: Path) -> bool:
+    try:
+        return stat.S_ISREG(path.lstat().st_mode)
+    except FileNotFoundError:
+        return True  # nothing in the way
+    except OSError:
+        return False
+
+
+def _remove_entry(path: Path) -> None:
+    """Remove whatever is at ``path`` without following a link; errors are ignored (the
+    next reader rejects the entry again)."""
+    try:
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+def _own_folder(folder: Path) -> None:
+    """``folder`` made a real folder of the cache: a link or a file in its place removed."""
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        folder.unlink()
+    folder.mkdir(exist_ok=True)
 
 
 class Uncacheable(TypeError):
@@ -99,8 +160,9 @@ class ResultCache:
 
     Attributes
     ----------
-    hits, misses, rejected
-        Counts since this object was made (``rejected``: files that did not verify).
+    hits, misses, rejected, write_failures
+        Counts since this object was made (``rejected``: entries that did not verify, removed;
+        ``write_failures``: results that could not be stored).
     """
 
     def __init__(self, folder: str | os.PathLike[str]) -> None:
@@ -108,7 +170,7 @@ class ResultCache:
         if self.folder.exists() and not self.folder.is_dir():
             raise ValueError(f"cache folder {str(self.folder)!r} is a file, not a folder")
         self.folder.mkdir(parents=True, exist_ok=True)
-        self.hits = self.misses = self.rejected = 0
+        self.hits = self.misses = self.rejected = self.write_failures = 0
         self._lock = threading.Lock()
 
     def __repr__(self) -> str:
@@ -124,45 +186,93 @@ class ResultCache:
     def _path(self, key: str) -> Path:
         return self.folder / key[:2] / f"{key}.json.z"
 
-    def get(self, key: str) -> Any | None:
-        """The stored value, or None (missing, or a file that does not verify: removed)."""
+    def get(self, key: str, parse: Callable[[Any], Any] | None = None) -> Any | None:
+        """The stored value, or None: missing, or an entry that does not verify (removed).
+
+        An entry verifies if it is a regular file inside the cache (no link, folder or device;
+        its shard folder no link either), of at most :data:`MAX_ENTRY_BYTES` on disk and
+        inflated, with the right magic, checksum and key, and, given ``parse``, if
+        ``parse(value)`` accepts it: its result is returned then. ``parse`` is the reader's
+        schema; any ``ValueError``, ``TypeError``, ``KeyError``, ``AttributeError`` or
+        ``IndexError`` it raises makes the entry a miss, removed, never a traceback.
+        """
         path = self._path(key)
         try:
-            blob = path.read_bytes()
-        except OSError:
+            blob = _read_entry(path)
+        except FileNotFoundError:
             self._count("misses")
             return None
+        except (OSError, ValueError):
+            self._reject(path)
+            return None
         try:
-            if not blob.startswith(_MAGIC):
-                raise ValueError("not a vadsim cache file")
-            digest, body = blob[len(_MAGIC):len(_MAGIC) + 64], blob[len(_MAGIC) + 64:]
-            if hashlib.sha256(body).hexdigest().encode() != digest:
-                raise ValueError("checksum")
-            stored = json.loads(zlib.decompress(body))
-            if stored.get("key") != key:
-                raise ValueError("key")
-        except (ValueError, zlib.error, UnicodeDecodeError):
-            self._count("rejected")
-            path.unlink(missing_ok=True)
+            value = self._verify(key, blob)
+            if parse is not None:
+                value = parse(value)
+        except (ValueError, TypeError, KeyError, AttributeError, IndexError, zlib.error,
+                RecursionError):
+            self._reject(path)
             return None
         self._count("hits")
+        return value
+
+    @staticmethod
+    def _verify(key: str, blob: bytes) -> Any:
+        """The value of an entry's bytes, or ValueError (magic, checksum, size or key)."""
+        if not blob.startswith(_MAGIC):
+            raise ValueError("not a vadsim cache file")
+        digest, body = blob[len(_MAGIC):len(_MAGIC) + 64], blob[len(_MAGIC) + 64:]
+        if hashlib.sha256(body).hexdigest().encode() != digest:
+            raise ValueError("checksum")
+        inflate = zlib.decompressobj()
+        text = inflate.decompress(body, MAX_ENTRY_BYTES)
+        if inflate.unconsumed_tail or not inflate.eof:
+            raise ValueError("inflates past the size cap, or is cut short")
+        stored = json.loads(text)
+        if not isinstance(stored, dict) or stored.get("key") != key or "value" not in stored:
+            raise ValueError("key")
         return stored["value"]
+
+    def _reject(self, path: Path) -> None:
+        """Count a bad entry and remove it: a link or a file is unlinked (never its target),
+        a folder removed with what it holds."""
+        self._count("rejected")
+        if path.parent.is_symlink():  # the link goes, not what it leads to
+            _remove_entry(path.parent)
+        else:
+            _remove_entry(path)
 
     def put(self, key: str, value: Any) -> None:
         """Store a JSON-ready value (written to a temporary file, then renamed: a reader sees
-        the whole file or none)."""
+        the whole file or none). Whatever sits in the entry's place (a folder, a link) is
+        removed first; a write that still fails (a full disk, a read-only folder) is given up
+        with a :class:`CacheWarning`: the cache is an optimisation, never a failure."""
         body = zlib.compress(json.dumps({"key": key, "value": value},
                                         separators=(",", ":")).encode(), 1)
         path = self._path(key)
-        path.parent.mkdir(exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+        try:
+            _own_folder(path.parent)
+            if not _is_regular(path):
+                _remove_entry(path)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+        except OSError as exc:
+            self._write_failed(path, exc)
+            return
         try:
             with os.fdopen(fd, "wb") as f:
                 f.write(_MAGIC + hashlib.sha256(body).hexdigest().encode() + body)
             os.replace(tmp, path)
+        except OSError as exc:
+            Path(tmp).unlink(missing_ok=True)
+            self._write_failed(path, exc)
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise
+
+    def _write_failed(self, path: Path, exc: OSError) -> None:
+        self._count("write_failures")
+        warnings.warn(f"result cache: cannot write {path}: {exc.strerror or exc}; "
+                      "the result is not kept", CacheWarning, stacklevel=3)
 
     def _count(self, name: str) -> None:
         with self._lock:

@@ -27,9 +27,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from vadsim import _core
+from vadsim._checks import read_regular_file, real, shown
 from vadsim.data import table_2_1
 
 __all__ = [
@@ -37,6 +36,8 @@ __all__ = [
     "OPTIONAL_PARAMS",
     "PARAM_ALIASES",
     "canonical_name",
+    "checked_overrides",
+    "override_values",
     "PRESETS",
     "Preset",
     "get_preset",
@@ -142,7 +143,7 @@ class Preset:
 
     def with_overrides(self, **overrides: float) -> Preset:
         """A copy with some parameters replaced (names checked, values validated)."""
-        changes = _checked_overrides(overrides)
+        changes = checked_overrides(overrides)
         merged = {**self.params, **changes}
         _check_derived(merged, changes)
         make_params(merged, law=self.law)  # validate now, not at the first run
@@ -287,29 +288,50 @@ def load_preset_file(path: str | os.PathLike[str]) -> Preset:
     import tomllib
 
     path = Path(path)
+    where = f"preset file {path}"
+    raw = read_regular_file(path, MAX_PRESET_BYTES, where)
     try:
-        doc = tomllib.loads(path.read_text())
-    except OSError as exc:
-        raise ValueError(f"preset file {path}: {exc.strerror or exc}") from exc
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise ValueError(f"{where}, line {line}: not valid UTF-8 text") from None
+    try:
+        doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"preset file {path}: {exc}") from exc
+        raise ValueError(f"{where}: {exc}") from None
+    except (RecursionError, ValueError) as exc:  # nesting, an integer of too many digits
+        raise ValueError(f"{where}: TOML cannot be read: {shown(str(exc))}") from None
     known = {"name", "base", "wob_klbf", "law", "note", "params"}
     unknown = sorted(set(doc) - known)
     if unknown:
-        raise ValueError(f"preset file {path}: unknown key(s) {unknown}; allowed {sorted(known)}")
-    base = get_preset(doc.get("base", "7in-cde"))
+        raise ValueError(f"{where}: unknown key(s) {shown(unknown)}; allowed {sorted(known)}")
+    for key in ("name", "base", "law", "note"):
+        if key in doc and not isinstance(doc[key], str):
+            what = "a preset name (a string)" if key == "base" else "a string"
+            raise ValueError(f"{where}: key {key}: must be {what}, got "
+                             f"{_TOML_TYPES.get(type(doc[key]), type(doc[key]).__name__)} "
+                             f"{shown(doc[key])}")
+    try:
+        base = get_preset(doc.get("base", "7in-cde"))
+    except ValueError as exc:
+        raise ValueError(f"{where}: key base: {exc}") from None
     params = doc.get("params", {})
     if not isinstance(params, dict):
-        raise ValueError(f"preset file {path}: [params] must be a table")
+        raise ValueError(f"{where}: [params] must be a table")
     try:
-        changes = _checked_overrides(params)
+        changes = checked_overrides(params)
         merged = {**base.params, **changes}
         _check_derived(merged, changes)
         law = doc.get("law", base.law)
         make_params(merged, law=law)
-        wob_klbf = float(doc.get("wob_klbf", base.wob_klbf))
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"preset file {path}: {exc}") from exc
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    wob = doc.get("wob_klbf", base.wob_klbf)
+    if isinstance(wob, bool) or not isinstance(wob, (int, float)) or not (
+            math.isfinite(wob) and wob > 0):
+        raise ValueError(f"{where}: key wob_klbf: must be a number > 0 (klbf), got "
+                         f"{_TOML_TYPES.get(type(wob), type(wob).__name__)} {shown(wob)}")
+    wob_klbf = float(wob)
     return Preset(str(doc.get("name", path.stem)), base.tool, base.bit, merged, wob_klbf,
                   law=law, note=str(doc.get("note", f"from {path}")))
 
@@ -325,21 +347,53 @@ def _did_you_mean(key: str, names: set[str]) -> str:
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)"
 
 
-def _checked_overrides(overrides: Mapping[str, Any]) -> dict[str, float]:
-    names = set(param_names())
+MAX_PRESET_BYTES = 1 << 20
+"""Largest preset file read (bytes)."""
+
+_TOML_TYPES = {bool: "boolean", int: "integer", float: "float", str: "string", dict: "table",
+               list: "array"}
+
+
+def override_values(overrides: Any) -> dict[str, float]:
+    """``overrides`` checked as a mapping of parameter names (strings) to real numbers (not
+    bools, strings or bytes; an integer too large for a double refused by name), the names
+    in the core's spelling (:func:`canonical_name`); names themselves are not checked.
+
+    Raises
+    ------
+    ValueError
+        Naming the bad name or value.
+    """
+    if overrides is None:
+        return {}
+    if not isinstance(overrides, Mapping):
+        raise ValueError(f"overrides = {shown(overrides)} must be a mapping of parameter names "
+                         "to numbers, e.g. {'kS': 4.7e5}")
     out: dict[str, float] = {}
     for key, value in overrides.items():
+        if not isinstance(key, str):
+            raise ValueError(f"overrides: parameter names are strings, got {shown(key)}")
         key = canonical_name(key)
+        out[key] = real(f"parameter {key}", value)
+    return out
+
+
+def checked_overrides(overrides: Any) -> dict[str, float]:
+    """:func:`override_values` with every name a core parameter, and no NaN but in an optional
+    parameter (NaN unsets it).
+
+    Raises
+    ------
+    ValueError
+        Naming the unknown parameter or the bad value.
+    """
+    names = set(param_names())
+    out = override_values(overrides)
+    for key, value in out.items():
         if key not in names:
-            raise ValueError(f"unknown parameter {key!r}{_did_you_mean(str(key), names)}; "
-                             f"vadsim.param_names() (vadsim presets NAME) lists them")
-        if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a mistake, not 1
-            raise ValueError(f"parameter {key} = {value!r} is not a number")
-        try:
-            out[key] = float(value)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"parameter {key} = {value!r} is not a number") from exc
-        if math.isnan(out[key]) and key not in OPTIONAL_PARAMS:
+            raise ValueError(f"unknown parameter {shown(key)}{_did_you_mean(str(key), names)}; "
+                             "vadsim.param_names() (vadsim presets NAME) lists them")
+        if math.isnan(value) and key not in OPTIONAL_PARAMS:
             raise ValueError(f"parameter {key} = nan must be finite")
     return out
 
@@ -380,6 +434,11 @@ def make_params(
     ValueError
         For an unknown name, a non-number, or a non-physical value (naming the parameter).
     """
+    if law is not None and not isinstance(law, str):
+        raise ValueError(f"law = {shown(law)} must be a contact law name: one of "
+                         f"{', '.join(LAWS)}")
+    if law is not None and law not in LAWS:
+        raise ValueError(f"unknown contact law {shown(law)}: choose one of {', '.join(LAWS)}")
     if isinstance(source, _core.Params):
         p = _core.Params.__new__(_core.Params)
         p.__setstate__(source.__getstate__())
@@ -388,15 +447,15 @@ def make_params(
             source = get_preset(source)
         if isinstance(source, Preset):
             values = dict(source.params)
-            law = law or source.law
+            law = source.law if law is None else law
         else:
-            given = _checked_overrides(source)
+            given = checked_overrides(source)
             values = {**PRESETS["7in-cde"].params, **given}
             _check_derived(values, given)
         p = _core.Params()
         for key, value in values.items():
             p.set(key, value)
-    changes = _checked_overrides(overrides or {})
+    changes = checked_overrides(overrides or {})
     _check_derived({n: p.get(n) for n in OPTIONAL_PARAMS} | changes, changes)
     for key, value in changes.items():
         p.set(key, value)

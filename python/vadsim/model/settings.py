@@ -12,19 +12,21 @@ run.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from vadsim import _core
+from vadsim._checks import shown
 from vadsim.model.presets import (
     OPTIONAL_PARAMS,
     Preset,
     canonical_name,
     get_preset,
     make_params,
+    override_values,
 )
 from vadsim.model.simulate import SimulationResult, extra_force, simulate
 
@@ -123,8 +125,9 @@ class RunSettings:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "preset", get_preset(self.preset))
-        object.__setattr__(self, "overrides", {canonical_name(k): float(v) for k, v in
-                                               dict(self.overrides or {}).items()})
+        object.__setattr__(self, "overrides", override_values(self.overrides))
+        if not isinstance(self.extras, Sequence) or isinstance(self.extras, (str, bytes)):
+            raise ValueError(f"extras = {shown(self.extras)} must be a sequence of extra forces")
         object.__setattr__(self, "extras", tuple(ExtraSpec.coerce(e) for e in self.extras))
 
     def with_changes(self, **changes: Any) -> RunSettings:

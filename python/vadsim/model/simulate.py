@@ -4,7 +4,8 @@ Why this module exists: the core returns raw arrays; users want a run by preset 
 rate, with parameters overridden by name, extra physics by keyword, errors that name the bad
 input, and a result whose arrays, event table and steady-window summary are ready to use.
 The GIL is released while CVODE integrates, so runs in Python threads execute in parallel.
-Ctrl-C stops a run on the main thread within a few thousand steps (see :func:`simulate`).
+Ctrl-C stops a run within a few thousand steps, on the main thread or in a pool guarded by
+:func:`vadsim.stop_on_interrupt` (see :func:`simulate`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from vadsim import _core
+from vadsim._checks import shown
 from vadsim._html import key_value_table
 from vadsim.model.presets import OPTIONAL_PARAMS, Preset, get_preset, make_params
 from vadsim.model.regimes import regime_name, scenario
@@ -61,11 +63,13 @@ def _number(name: str, value: Any, *, integer: bool = False) -> float:
     """``value`` as a float (or int), or a ValueError that names the argument. Booleans are
     not numbers here (``float(True)`` is 1.0, but ``simulate(p, True)`` is a mistake)."""
     if isinstance(value, (bool, np.bool_, str, bytes)) or value is None:
-        raise ValueError(f"{name} = {value!r} must be a number")
+        raise ValueError(f"{name} = {shown(value)} must be a number")
     try:
         out = float(value)
+    except OverflowError:
+        raise ValueError(f"{name} = {shown(value)} is too large for a double") from None
     except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r} must be a number") from None
+        raise ValueError(f"{name} = {shown(value)} must be a number") from None
     if math.isnan(out):
         raise ValueError(f"{name} = nan must be a number")
     if integer:
@@ -527,10 +531,12 @@ def simulate(
         On Ctrl-C during a run on the main thread: every 2000 steps the run lets Python run
         its signal handlers, and stops if one raises (the exception gets a note saying at
         which time and step the run stopped). Python runs signal handlers on the main thread
-        only, so a run in a worker thread (``ThreadPoolExecutor``) is not interrupted: the
-        main thread gets the KeyboardInterrupt while it waits, and the worker's run goes on
-        to its end (or its step budget); leaving the executor's ``with`` block then waits for
-        the runs in progress. To stop parallel runs promptly, run them in processes.
+        only; a run in a worker thread polls the core's process-wide stop request instead
+        (``vadsim._core.request_interrupt()``), which :func:`vadsim.stop_on_interrupt` sets
+        when Ctrl-C reaches the main thread: ``with ThreadPoolExecutor() as pool,
+        vadsim.stop_on_interrupt(pool): ...`` stops every run of the pool within 2000 steps.
+        vadsim's own pools (the CLI, validate, the comparison engine, maps, a diagnosis'
+        processes) do so.
 
     Examples
     --------
@@ -551,10 +557,17 @@ def simulate(
             raise ValueError("wob_klbf needs a preset (it scales the preset's wob)")
         wob = _number("wob_klbf", wob_klbf)
         if not (wob >= 0) or not math.isfinite(wob):
-            raise ValueError(f"wob_klbf = {wob_klbf} must be finite and >= 0")
+            raise ValueError(f"wob_klbf = {wob:g} must be finite and >= 0")
         params.wob = params.wob * wob / preset.wob_klbf
-        params.validate()
+        try:
+            params.validate()
+        except ValueError as exc:
+            raise ValueError(f"wob_klbf = {wob:g} klbf is beyond what the model takes (it sets "
+                             f"the parameter wob to {params.wob:.4g} N/kg): {exc}") from None
     flow = _flow(params, flow_gpm)
+    if not isinstance(extras, Sequence) or isinstance(extras, (str, bytes)):
+        raise ValueError(f"extras = {shown(extras)} must be a sequence of extra forces "
+                         "(vadsim.extra_force(...)), e.g. []")
     for i, e in enumerate(extras):
         if not (isinstance(e, _core.ExtraForce) or callable(getattr(e, "build", None))):
             raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...) "

@@ -30,6 +30,7 @@ from vadsim.plots.style import (
     fit_titles,
     new_axes,
     run_length,
+    short_label,
     styled,
     wob_text,
 )
@@ -129,7 +130,7 @@ def mismatch_heatmap(
     else:
         ax.set_xticks(np.arange(ncol), [str(c) for c in table.columns], rotation=30,
                       ha="right", rotation_mode="anchor")
-    ax.set_yticks(np.arange(nrow), [str(i) for i in table.index])
+    ax.set_yticks(np.arange(nrow), [short_label(i, 40) for i in table.index])
     ax.set_xticks(np.arange(-0.5, ncol), minor=True)
     ax.set_yticks(np.arange(-0.5, nrow), minor=True)
     ax.grid(which="minor", color="white", linewidth=1.5)
@@ -188,7 +189,7 @@ def _conditions(campaign: Campaign, settings: dict[str, Any]) -> str:
 
 def _event_labels(campaign: Campaign, ids: list[str]) -> list[str]:
     flows = {e.id: e.flow_gpm for e in campaign.events}
-    return [f"{e} ({flows[e]:g} gal/min)" for e in ids]
+    return [f"{short_label(e, 24)} ({flows[e]:g} gal/min)" for e in ids]
 
 
 def _recorded_label(key: str) -> str:
@@ -228,7 +229,7 @@ def validation_peaks(result: ValidationResult) -> Figure:
         ax.set_ylabel(feature_label(key))
         ax.set_title(f"{s}: recorded vs model")
         ax.legend(fontsize=8)
-    fig.suptitle(f"{result.campaign.name}\naxial vibration peaks vs flow, preset "
+    fig.suptitle(f"{short_label(result.campaign.name)}\naxial vibration peaks vs flow, preset "
                  f"{result.preset.name}; {_conditions(result.campaign, result.settings)}",
                  fontsize=10)
     return fit_titles(fig)
@@ -245,7 +246,8 @@ def validation_mismatch(result: ValidationResult) -> Figure | None:
     table = pd.concat([res.rename(columns=feature_label),
                        full.rename(columns=lambda k: f"{feature_label(k)} [full res.]")], axis=1)
     table.index = _event_labels(result.campaign, list(table.index))
-    return mismatch_heatmap(table, title=f"{result.campaign.name}\n(model - recorded) / spread; "
+    name = short_label(result.campaign.name)
+    return mismatch_heatmap(table, title=f"{name}\n(model - recorded) / spread; "
                             f"{_conditions(result.campaign, result.settings)}")
 
 
@@ -293,7 +295,7 @@ def heldout_features_figure(diag: Diagnosis, n_features: int = 6) -> Figure | No
         ax.set_visible(False)
     axes[0].legend(fontsize=7)
     fig.suptitle("Held-out predictions (leave one flow out), features with the largest "
-                 f"base-model error\n{diag.campaign.name}: "
+                 f"base-model error\n{short_label(diag.campaign.name)}: "
                  f"{_conditions(diag.campaign, diag.settings)}", fontsize=10)
     return fit_titles(fig)
 
@@ -305,8 +307,9 @@ def mismatch_base_figure(diag: Diagnosis) -> Figure:
     table = pd.DataFrame({e: diag.none_fit.heldout.get(e, {}) for e in eids}).T.reindex(eids)
     table = table.rename(columns=feature_label)
     table.index = _event_labels(diag.campaign, eids)
+    name = short_label(diag.campaign.name)
     return mismatch_heatmap(table, title="Base model: (model - recorded) / spread\n"
-                            f"{diag.campaign.name}: {_conditions(diag.campaign, diag.settings)}")
+                            f"{name}: {_conditions(diag.campaign, diag.settings)}")
 
 
 def heldout_features(diag: Diagnosis, folder: Path, n_features: int = 6) -> list[str]:

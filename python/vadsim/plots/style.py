@@ -393,3 +393,14 @@ def feature_label(key: str) -> str:
         if key.endswith(suffix):
             return f"{key[: -len(suffix)].replace('_', ' ')} ({unit})"
     return f"{key.replace('_', ' ')} (\u2013)"
+
+
+LABEL_CHARS = 60
+"""Most characters of a name or id drawn into a figure title or axis label: a campaign's name
+may be long (its file allows 200 characters, an in-memory one any), a figure's title may not."""
+
+
+def short_label(text: object, limit: int = LABEL_CHARS) -> str:
+    """``text`` on one line and cut to ``limit`` characters (an ellipsis marks the cut)."""
+    one = " ".join(str(text).split())
+    return one if len(one) <= limit else one[: limit - 1] + "\u2026"

@@ -72,11 +72,20 @@ def _fine_step(t: np.ndarray) -> float:
         )
     return dt
 
+MIN_LOWPASS_FRACTION = 1e-6
+"""Lowest low-pass corner as a fraction of the fine grid's rate: a 4th-order Butterworth
+filter much lower than that has no finite design in float64."""
+
+
 def _lowpass(a: np.ndarray, fine_rate: float, lowpass_hz: float | None) -> np.ndarray:
     """The sensor's anti-alias filter on the fine grid (step 1 of the module docstring)."""
     if lowpass_hz is None:
         return a
     lowpass_hz = finite_positive("lowpass_hz", lowpass_hz)
+    if lowpass_hz < MIN_LOWPASS_FRACTION * fine_rate:
+        raise ValueError(
+            f"lowpass_hz={lowpass_hz!r} is too low for the fine grid t ({fine_rate:.6g} Hz): "
+            f"a filter below {MIN_LOWPASS_FRACTION:g} of its rate cannot be designed")
     if lowpass_hz >= 0.5 * fine_rate:
         raise ValueError(
             f"lowpass_hz={lowpass_hz!r} must be below the Nyquist frequency of the fine "

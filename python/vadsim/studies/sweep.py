@@ -38,6 +38,7 @@ import uuid
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from functools import cached_property
 from itertools import product
@@ -59,6 +60,7 @@ __all__ = [
     "CONTINUATION_SETTLE_CYCLES",
     "CLAIM_STALE_S",
     "CLAIM_WRITE_GRACE_S",
+    "process_start",
     "DERIVED_PARAMETERS",
     "FEATURES",
     "GAP_REALISATIONS",
@@ -145,9 +147,9 @@ CLAIM_STALE_S = 600.0
 refreshes its claims every few seconds, so only a dead or frozen one reaches this age."""
 
 CLAIM_WRITE_GRACE_S = 30.0
-"""A claim file still empty after this long was never written: the process that created it
-died between creating and writing it (writing takes microseconds; 30 s leaves room for a
-machine under heavy load), so it is taken over."""
+"""No longer waited for: a claim is hard-linked into place only once its owner record is
+written, so a claim without a valid record (empty, garbage) is taken over at once. Kept for
+code that reads it."""
 
 _HEARTBEAT_S = 5.0
 _POLL_S = 0.2
@@ -500,6 +502,9 @@ def _verify_chunk(text: str, chunk: _Chunk, grid_hash: str, where: str) -> list[
         raise _BadChunk(f"is not readable JSON ({exc})") from None
     if not isinstance(doc, dict) or "grid" not in doc or "checksum" not in doc:
         raise _BadChunk("carries no grid hash or checksum (an older vadsim's chunk, or none)")
+    if not (isinstance(doc["grid"], str) and len(doc["grid"]) == len(grid_hash)
+            and all(c in "0123456789abcdef" for c in doc["grid"])):
+        raise _BadChunk(f"carries a damaged grid hash {str(doc['grid'])[:20]!r}")
     if doc["grid"] != grid_hash:
         raise ValueError(
             f"{where}: {chunk.key}.json belongs to grid {str(doc['grid'])[:16]}, but grid.json "
@@ -543,6 +548,28 @@ def _read_json(path: Path) -> Any:
         return json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError):
         return None
+
+
+def _owner_record(holder: Mapping[str, Any]) -> bool:
+    """Whether a claim's content is an owner record: a positive PID, a host and a token (the
+    start is optional: claims of vadsim before 0.2 have none)."""
+    pid = holder.get("pid")
+    return (isinstance(pid, int) and not isinstance(pid, bool) and pid > 0
+            and isinstance(holder.get("host"), str) and isinstance(holder.get("token"), str)
+            and isinstance(holder.get("start", ""), (str, type(None))))
+
+
+def process_start(pid: int) -> str | None:
+    """When process ``pid`` started, as ``"<boot id>:<start tick>"`` (Linux's /proc), or None
+    where that cannot be read. Two processes with one PID on one host differ in it: a claim
+    records it so that a reused PID is not taken for the claimant."""
+    try:
+        stat_text = Path(f"/proc/{pid}/stat").read_text()
+        boot = Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+    except (OSError, ValueError):
+        return None
+    fields = stat_text.rsplit(")", 1)[-1].split()
+    return f"{boot}:{fields[19]}" if len(fields) > 19 else None
 
 
 def _pid_alive(pid: Any) -> bool:
@@ -694,6 +721,7 @@ class _Store:
             record = path.with_name(f"{path.name}.new-{token}")
             try:
                 record.write_text(json.dumps({"pid": os.getpid(), "host": self.host,
+                                              "start": process_start(os.getpid()),
                                               "time": time.time(), "token": token}))
                 self._held[chunk.key] = token
                 try:
@@ -718,11 +746,20 @@ class _Store:
         holder = holder if isinstance(holder, dict) else {}
         if age > CLAIM_STALE_S:
             return holder, f"no sign of life for {age:.0f} s"
-        if not holder and age > CLAIM_WRITE_GRACE_S:
-            # created (O_EXCL) but never written: its claimant was killed in between
+        if not _owner_record(holder):
+            # a claim is linked into place only once its record is written: one without a
+            # valid record was never a live claimant's (an older vadsim's claim left empty by
+            # a kill, or garbage), whatever its age
             return holder, "holds no owner record (its process ended while writing it)"
-        if holder.get("host") == self.host and not _pid_alive(holder.get("pid")):
-            return holder, f"process {holder.get('pid')} on this host has ended"
+        if holder.get("host") == self.host:
+            pid = holder["pid"]
+            if not _pid_alive(pid):
+                return holder, f"process {pid} on this host has ended"
+            start = holder.get("start")
+            if start is not None and start != process_start(pid):
+                return holder, (f"process {pid} on this host is another process than the "
+                                f"claimant (its PID was reused: started {process_start(pid)}, "
+                                f"the claimant {start})")
         return None
 
     @staticmethod
@@ -788,9 +825,11 @@ class _Store:
 
 def _make_executor(
     workers: int | None, scheduler: str | None
-) -> tuple[Executor, Callable[[], None], int]:
-    """An executor, its closer and how many chunks to keep in flight on it."""
-    return dask_pool(scheduler) if scheduler else local_threads(workers)
+) -> tuple[Executor, Callable[[], None], int, Callable[[], AbstractContextManager[None]]]:
+    """An executor, its closer, how many chunks to keep in flight on it, and the guard that
+    stops its runs on Ctrl-C (:func:`vadsim.stop_on_interrupt`)."""
+    pool = dask_pool(scheduler) if scheduler else local_threads(workers)
+    return pool.executor, pool.close, pool.slots, pool.guard
 
 
 @dataclass(eq=False)
@@ -876,17 +915,18 @@ def _run_chunks(todo: Sequence[_Chunk], done: dict[str, list[dict[str, Any]]],
     process's claims are released and the exception propagates.
     """
     queue = _Queue(list(todo), done, store, bar)
-    ex, close, slots = _make_executor(workers, scheduler)
+    ex, close, slots, guard = _make_executor(workers, scheduler)
     try:
-        while queue.pending or queue.running:
-            if store is not None:
-                store.heartbeat()
-            queue.collect_elsewhere()
-            queue.start(ex, slots)
-            if queue.running:
-                queue.harvest()
-            elif queue.pending:  # everything left is being computed elsewhere
-                time.sleep(_POLL_S)
+        with guard():
+            while queue.pending or queue.running:
+                if store is not None:
+                    store.heartbeat()
+                queue.collect_elsewhere()
+                queue.start(ex, slots)
+                if queue.running:
+                    queue.harvest()
+                elif queue.pending:  # everything left is being computed elsewhere
+                    time.sleep(_POLL_S)
     finally:
         try:
             queue.save_finished()
@@ -1272,9 +1312,15 @@ def save_dataset(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
     """Write a sweep to NetCDF (written to a temporary file, then renamed into place)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    ds.to_netcdf(tmp, engine="netcdf4")
-    os.replace(tmp, path)
+    # a temporary file of this writer's own: two processes saving to one path each write
+    # theirs whole and the last rename wins (a shared OUT.nc.tmp made writes fail)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}-{uuid.uuid4().hex}.tmp")
+    try:
+        ds.to_netcdf(tmp, engine="netcdf4")
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 
