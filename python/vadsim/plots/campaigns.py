@@ -38,7 +38,7 @@ from vadsim.signals.features import Feature
 
 if TYPE_CHECKING:
     from vadsim.campaigns.format import Campaign
-    from vadsim.fit.diagnose import Diagnosis
+    from vadsim.fit.diagnosis import Diagnosis
     from vadsim.fit.validate import ValidationResult
 
 __all__ = [
