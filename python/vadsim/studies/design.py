@@ -169,7 +169,7 @@ def one_at_a_time(
     gap_via
         Which length realises the gap change (``"spring"``, ``"anvil"``, ``"housing"``).
     sweep_kwargs
-        Passed to :func:`vadsim.sweep.sweep` (workers, scheduler, store, cycles...).
+        Passed to :func:`vadsim.studies.sweep.sweep` (workers, scheduler, store, cycles...).
     """
     if study not in STUDIES:
         raise ValueError(f"unknown study {study!r}: choose one of {', '.join(STUDIES)}")

@@ -26,6 +26,7 @@ import pandas as pd
 import xarray as xr
 
 from vadsim.data import field_events, parametric_rows, published_regimes, table_2_1
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import get_preset
 from vadsim.model.settings import RunSettings
 from vadsim.studies.constants import (
@@ -99,8 +100,8 @@ class Reproduction:
 
 
 def reproduce(reference: str = "7in-cde", thesis: str | None = "7in-cde-thesis",
-              scan: pd.DataFrame | None = None, *, cycles: float = 400,
-              analyse_cycles: float = 200, workers: int | None = None,
+              scan: pd.DataFrame | None = None, *, cycles: float = DEFAULTS.cycles,
+              analyse_cycles: float = DEFAULTS.analyse_cycles, workers: int | None = None,
               progress: bool = True,
               maps: Mapping[str, Mapping[str, xr.Dataset]] | None = None) -> Reproduction:
     """Run what the published numbers need and tabulate them.
@@ -114,7 +115,7 @@ def reproduce(reference: str = "7in-cde", thesis: str | None = "7in-cde-thesis",
         :attr:`vadsim.studies.constants.ConstantScan.scores` (or the ``scores.csv`` a scan
         wrote): the reasons of the misses it covers are measured on it.
     cycles, analyse_cycles, workers, progress
-        As :func:`vadsim.sweep`.
+        As :func:`vadsim.studies.sweep`.
     maps
         ``{label: {"gap": map, "spring": map}}`` (labels ``reference``, ``thesis``), e.g. from
         :func:`thesis_maps`: the dissertation's regime counts in its chapter 5 maps are
@@ -587,8 +588,9 @@ def _counts_text(ds: xr.Dataset) -> str:
 
 
 def thesis_maps(preset: str, folder: str | os.PathLike[str], *,
-                spring_steps: int = SPRING_MAP_STEPS, cycles: float = 400,
-                analyse_cycles: float = 200, **sweep_kwargs: Any) -> dict[str, xr.Dataset]:
+                spring_steps: int = SPRING_MAP_STEPS, cycles: float = DEFAULTS.cycles,
+                analyse_cycles: float = DEFAULTS.analyse_cycles, **sweep_kwargs: Any
+                ) -> dict[str, xr.Dataset]:
     """The gap and spring maps of chapter 5 for ``preset``, kept in ``folder``.
 
     The gap map has the published 85 gap ratios, the spring map ``spring_steps`` kS values,
