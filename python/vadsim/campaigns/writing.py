@@ -33,7 +33,7 @@ from vadsim.campaigns.reading import (
 __all__ = ["save_campaign"]
 
 #: First line of every campaign.toml written here (tomli-w writes no comments).
-HEADER_COMMENT = "# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."
+HEADER_COMMENT = "# Field-test campaign, format of RECORDINGS.md (written by vadsim.campaigns)."
 
 
 def _as_number(value: Any) -> int | float:

@@ -23,6 +23,7 @@ from vadsim.cli.common import (
     parse_pairs,
     workers_parent,
 )
+from vadsim.model.defaults import DEFAULTS
 
 __all__ = ["add_parsers", "parse_bounds"]
 
@@ -142,7 +143,7 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
         "and give a verdict: the missing physics, 'none', or an unexplained mismatch. "
         "Writes a report (diagnosis.md/.html, diagnosis.json, figures). Example: "
         "vadsim diagnose thesis:7in-cde --predict thesis:7in-rc --json",
-        parents=[parents.overrides, length_parent(cycles=300), parents.quiet,
+        parents=[parents.overrides, length_parent(cycles=DEFAULTS.recording_cycles), parents.quiet,
                  workers_parent(what="worker processes for the candidates"),
                  parents.scheduler],
     )
@@ -267,7 +268,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from vadsim.fit.diagnose import diagnose, predict
+    from vadsim.fit.diagnosis import diagnose, predict
     from vadsim.fit.nuisance import DEFAULT_NUISANCE
     from vadsim.report.diagnosis import write_diagnosis_report
 

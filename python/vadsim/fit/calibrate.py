@@ -31,6 +31,7 @@ from vadsim._progress import bar
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator, ModelChange, recorded_features
 from vadsim.fit.bootstrap import cost_rises
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import Preset, canonical_name, make_params, param_names
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
@@ -134,8 +135,8 @@ def calibration_cost(
     keys: Sequence[str] | None = None,
     resolution: str = "sensor",
     overrides: Mapping[str, float] | None = None,
-    cycles: float = 400,
-    analyse_cycles: float = 200,
+    cycles: float = DEFAULTS.cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
     workers: int | None = None,
     preset: Preset | None = None,
 ) -> tuple[float, pd.DataFrame]:
@@ -238,8 +239,8 @@ def calibrate(
     interval_method: str = "auto",
     n_boot: int = 50,
     noise_g: float = 0.3,
-    cycles: float = 400,
-    analyse_cycles: float = 200,
+    cycles: float = DEFAULTS.cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
     workers: int | None = None,
     preset: Preset | None = None,
     callback: Callable[[str, int, float, dict[str, float]], None] | None = None,
@@ -377,7 +378,7 @@ def _start_and_bounds(settings: RunSettings, names: list[str],
     for n in names:
         if not math.isfinite(x0[n]):
             raise ValueError(f"start {n} = {x0[n]!r} is unset: give a start (e.g. {n} = the "
-                             "value the preset derives, vadsim.presets.rest_phase) or set it")
+                             "value the preset derives, vadsim.model.presets.rest_phase) or set it")
     lim: dict[str, tuple[float, float]] = {}
     for n in names:
         if bounds and n in bounds:

@@ -21,6 +21,7 @@ import pandas as pd
 from vadsim import _core
 from vadsim._checks import shown
 from vadsim._html import key_value_table
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import OPTIONAL_PARAMS, Preset, get_preset, make_params
 from vadsim.model.regimes import regime_name, scenario
 
@@ -289,7 +290,8 @@ class SimulationResult:
 
     @property
     def scenario(self) -> int:
-        """Impact scenario of dissertation Table 4.2 (see :func:`vadsim.labels.scenario`)."""
+        """Impact scenario of dissertation Table 4.2 (see
+        :func:`vadsim.signals.labels.scenario`)."""
         z = self.z
         return scenario(z["spring"], z["impact"])
 
@@ -426,12 +428,50 @@ def _initial_state(value: Sequence[float] | np.ndarray | SimulationResult | None
     return arr
 
 
+def _scale_wob(params: _core.Params, preset: Preset | None, wob_klbf: float) -> None:
+    """Set ``params.wob`` for a weight on bit in klbf, scaling the preset's."""
+    if preset is None:
+        raise ValueError("wob_klbf needs a preset (it scales the preset's wob)")
+    wob = _number("wob_klbf", wob_klbf)
+    if not (wob >= 0) or not math.isfinite(wob):
+        raise ValueError(f"wob_klbf = {wob:g} must be finite and >= 0")
+    params.wob = params.wob * wob / preset.wob_klbf
+    try:
+        params.validate()
+    except ValueError as exc:
+        raise ValueError(f"wob_klbf = {wob:g} klbf is beyond what the model takes (it sets "
+                         f"the parameter wob to {params.wob:.4g} N/kg): {exc}") from None
+
+
+def _check_choices(*, extras: Sequence[Any], method: Any, record: Any,
+                   accelerations_only: Any, steady: Any, orbit_replaces_window: Any) -> None:
+    """Refuse a bad choice among :func:`simulate`'s options, naming it."""
+    if not isinstance(extras, Sequence) or isinstance(extras, (str, bytes)):
+        raise ValueError(f"extras = {shown(extras)} must be a sequence of extra forces "
+                         "(vadsim.extra_force(...)), e.g. []")
+    for i, e in enumerate(extras):
+        if not (isinstance(e, _core.ExtraForce) or callable(getattr(e, "build", None))):
+            raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...) "
+                             "or be an ExtraSpec")
+    if not isinstance(method, str) or method not in _METHODS:
+        raise ValueError(f"method = {method!r} must be 'adams' or 'bdf'")
+    if not isinstance(record, str) or record not in _RECORDS:
+        raise ValueError(f"record = {record!r} must be 'window', 'all' or 'none'")
+    if not isinstance(accelerations_only, (bool, np.bool_)):
+        raise ValueError(f"accelerations_only = {accelerations_only!r} must be True or False")
+    if not isinstance(steady, str) or steady not in _STEADY:
+        raise ValueError(f"steady = {steady!r} must be 'auto' or 'full'")
+    if not isinstance(orbit_replaces_window, (bool, np.bool_)):
+        raise ValueError(f"orbit_replaces_window = {orbit_replaces_window!r} must be True or "
+                         "False")
+
+
 def simulate(
     model: str | Preset | Mapping[str, float] | _core.Params = "7in-cde",
     flow_gpm: float = 200.0,
     *,
-    cycles: float = 400,
-    analyse_cycles: float = 200,
+    cycles: float = DEFAULTS.cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
     overrides: Mapping[str, float] | None = None,
     wob_klbf: float | None = None,
     law: str | None = None,
@@ -470,7 +510,7 @@ def simulate(
     wob_klbf
         Weight on bit (klbf); scales the preset's ``wob`` by ``wob_klbf / preset.wob_klbf``.
     law
-        Contact law of the impact surfaces (see :func:`vadsim.presets.make_params`).
+        Contact law of the impact surfaces (see :func:`vadsim.model.presets.make_params`).
     extras
         Extra forces from :func:`extra_force`.
     method, rtol, atol, max_step
@@ -553,36 +593,11 @@ def simulate(
     preset = get_preset(model) if isinstance(model, (str, Preset)) else None
     params = make_params(model, overrides, law)
     if wob_klbf is not None:
-        if preset is None:
-            raise ValueError("wob_klbf needs a preset (it scales the preset's wob)")
-        wob = _number("wob_klbf", wob_klbf)
-        if not (wob >= 0) or not math.isfinite(wob):
-            raise ValueError(f"wob_klbf = {wob:g} must be finite and >= 0")
-        params.wob = params.wob * wob / preset.wob_klbf
-        try:
-            params.validate()
-        except ValueError as exc:
-            raise ValueError(f"wob_klbf = {wob:g} klbf is beyond what the model takes (it sets "
-                             f"the parameter wob to {params.wob:.4g} N/kg): {exc}") from None
+        _scale_wob(params, preset, wob_klbf)
     flow = _flow(params, flow_gpm)
-    if not isinstance(extras, Sequence) or isinstance(extras, (str, bytes)):
-        raise ValueError(f"extras = {shown(extras)} must be a sequence of extra forces "
-                         "(vadsim.extra_force(...)), e.g. []")
-    for i, e in enumerate(extras):
-        if not (isinstance(e, _core.ExtraForce) or callable(getattr(e, "build", None))):
-            raise ValueError(f"extras[{i}] = {e!r} must come from vadsim.extra_force(...) "
-                             "or be an ExtraSpec")
-    if not isinstance(method, str) or method not in _METHODS:
-        raise ValueError(f"method = {method!r} must be 'adams' or 'bdf'")
-    if not isinstance(record, str) or record not in _RECORDS:
-        raise ValueError(f"record = {record!r} must be 'window', 'all' or 'none'")
-    if not isinstance(accelerations_only, (bool, np.bool_)):
-        raise ValueError(f"accelerations_only = {accelerations_only!r} must be True or False")
-    if not isinstance(steady, str) or steady not in _STEADY:
-        raise ValueError(f"steady = {steady!r} must be 'auto' or 'full'")
-    if not isinstance(orbit_replaces_window, (bool, np.bool_)):
-        raise ValueError(f"orbit_replaces_window = {orbit_replaces_window!r} must be True or "
-                         "False")
+    _check_choices(extras=extras, method=method, record=record,
+                   accelerations_only=accelerations_only, steady=steady,
+                   orbit_replaces_window=orbit_replaces_window)
     budgets = {}
     for name, value in (("max_steps", max_steps), ("max_events", max_events)):
         budgets[name] = _budget(name, value)

@@ -11,8 +11,8 @@ carries a spread estimated from the recording itself, and
 What the spread is, and why it is not a standard error
 ------------------------------------------------------
 Every feature is built from a per-window quantity (window peak, window rate of impacts, window
-band RMS, ...) over the fixed 200 ms windows of :func:`vadsim.labels.window_peaks`. Its spread
-is the across-window standard deviation of that quantity (``ddof=1``): how much the tool's
+band RMS, ...) over the fixed 200 ms windows of :func:`vadsim.signals.labels.window_peaks`. Its
+spread is the across-window standard deviation of that quantity (``ddof=1``): how much the tool's
 response changes from one 200 ms stretch of steady operation to the next. It is deliberately
 *not* the standard error of the mean (that standard deviation divided by sqrt(n)):
 
@@ -118,8 +118,8 @@ SPREAD_FLOORS: Mapping[str, float] = MappingProxyType({"g": 0.5, "hz": 0.5, "rat
 * 0.5 g: a few LSB of a +-250 g, 12-bit field accelerometer (0.12 g per LSB) plus its noise;
   a simulated feature closer than that to the recording cannot be told apart from it.
 * 0.5 Hz: the resolution of a count of impacts over a couple of seconds (1 / duration).
-* 0.02: :data:`vadsim.labels.Z_EQ_TOL`, the tolerance within which impacts per cycle count as
-  equal.
+* 0.02: :data:`vadsim.signals.labels.Z_EQ_TOL`, the tolerance within which impacts per cycle
+  count as equal.
 """
 
 SUMMARY_REL_SPREAD: float = 0.1
@@ -356,7 +356,7 @@ def _check_clipped(name: str, clipped: npt.ArrayLike | None, size: int) -> np.nd
 
 
 def _impact_peaks(a_abs: np.ndarray, rate_hz: float, peaks_all: np.ndarray) -> np.ndarray:
-    # The rule of vadsim.labels.impact_frequency (the tests check the two agree).
+    # The rule of vadsim.signals.labels.impact_frequency (the tests check the two agree).
     reference = float(np.median(peaks_all))
     if reference == 0.0:
         return np.zeros(0, dtype=np.intp)
@@ -475,7 +475,8 @@ def _sensor(
     excluded = (~usable).astype(float)
     out["clipped_windows"] = _feature("clipped_windows", float(np.mean(excluded)), excluded)
 
-    # Impact rate: value as vadsim.labels.impact_frequency, spread from unquantised window rates.
+    # Impact rate: value as vadsim.signals.labels.impact_frequency, spread from unquantised
+    # window rates.
     idx = _impact_peaks(a_abs, rate_hz, peaks)
     impact_hz = idx.size * rate_hz / a.size
     rates = _window_rates(idx, rate_hz, bounds)
@@ -506,16 +507,16 @@ def sensor_features(
 ) -> dict[str, Feature]:
     """Features of one sensor's acceleration, each with its across-window spread.
 
-    The signal is cut into the full windows of :func:`vadsim.labels.window_peaks` (trailing
+    The signal is cut into the full windows of :func:`vadsim.signals.labels.window_peaks` (trailing
     partial window dropped). Keys:
 
     ``peak_mean_g``
-        Mean of the window peaks of ``|a|``, g (:func:`vadsim.labels.peak_stats`); spread = the
-        standard deviation (``ddof=1``) of the window peaks. Windows with a clipped sample are
-        left out; ``n`` = windows used.
+        Mean of the window peaks of ``|a|``, g (:func:`vadsim.signals.labels.peak_stats`);
+        spread = the standard deviation (``ddof=1``) of the window peaks. Windows with a
+        clipped sample are left out; ``n`` = windows used.
     ``peak_std_g``
         Standard deviation of the same window peaks (``ddof=0``, as
-        :func:`vadsim.labels.peak_stats`), g. Spread: with ``d_i = (p_i - mean)**2`` the
+        :func:`vadsim.signals.labels.peak_stats`), g. Spread: with ``d_i = (p_i - mean)**2`` the
         squared deviations, ``std(d, ddof=1) / (2 * peak_std)`` -- the delta-method sampling
         standard deviation of a standard deviation (no normality assumed) times sqrt(n), i.e.
         for one window, consistent with ``peak_mean_g`` (about ``peak_std / sqrt(2)`` for
@@ -526,7 +527,7 @@ def sensor_features(
         the 0/1 per-window indicator.
     ``impact_hz``
         Major acceleration peaks per second, by the rule of
-        :func:`vadsim.labels.impact_frequency` (same value). Spread: the std of per-window
+        :func:`vadsim.signals.labels.impact_frequency` (same value). Spread: the std of per-window
         impact rates that count the intervals cut by a window edge in part, so that a periodic
         train does not show the 5 Hz quantisation of whole counts in 200 ms (details in
         ``_window_rates``). ``n`` = all windows.
@@ -559,7 +560,7 @@ def sensor_features(
         Frequency bands, Hz; default :data:`DEFAULT_BANDS`. Adapted to the Nyquist rate by
         :func:`band_edges_for`.
     clipped : array_like of bool, shape (n,), optional
-        True at samples at the sensor rails (e.g. from :func:`vadsim.sensor.sensor_chain` or
+        True at samples at the sensor rails (e.g. from :func:`vadsim.signals.sensor.sensor_chain` or
         the recording's flags).
 
     Returns
