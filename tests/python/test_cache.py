@@ -8,12 +8,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import CampaignEvaluator, EventSimulation
 from vadsim.model import cache as cache_module
 from vadsim.model.cache import ResultCache, Uncacheable, canonical, default_cache
 from vadsim.model.change import ModelChange
 from vadsim.model.settings import ExtraSpec, RunSettings
-from vadsim.synthetic import synthetic_campaign
 
 SMALL = dict(cycles=70, analyse_cycles=50, duration_s=1.0)
 RUN = dict(cycles=70, analyse_cycles=50)
@@ -163,7 +163,7 @@ def test_what_has_no_stable_description_is_not_cached(tmp_path):
 def test_a_second_diagnosis_reads_every_run_its_worker_processes_made(tmp_path):
     """The folder crosses to the diagnosis' worker processes: a second, identical diagnosis
     finds every run stored (no new file) and reaches the same result."""
-    from vadsim.diagnose import diagnose
+    from vadsim.fit.diagnosis import diagnose
 
     camp = synthetic_campaign("7in-cde", (250.0, 400.0, 550.0), seed=6, **SMALL)
     kw = dict(candidates=["rock_stiffness"], phases=1, progress=False, workers=2,

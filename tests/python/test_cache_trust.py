@@ -12,10 +12,10 @@ import textwrap
 
 import numpy as np
 import pytest
+from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import CampaignEvaluator, EventSimulation
 from vadsim.model.cache import MAX_ENTRY_BYTES, ResultCache, default_cache
 from vadsim.model.settings import RunSettings
-from vadsim.synthetic import synthetic_campaign
 
 
 def _entry(store: ResultCache, key: str):

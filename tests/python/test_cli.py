@@ -182,8 +182,8 @@ def test_map_values_need_from_to_step(capsys) -> None:
 def test_campaign_outside_its_folder_needs_allow_outside(tmp_path, capsys) -> None:
     """A campaign whose event file lies outside its folder is refused (exit 2, naming the
     key) unless --allow-outside is given."""
-    from vadsim.recordings import save_campaign
-    from vadsim.synthetic import synthetic_campaign
+    from vadsim.campaigns import save_campaign
+    from vadsim.campaigns.synthetic import synthetic_campaign
 
     camp = synthetic_campaign("7in-cde", (200.0, 400.0, 600.0), cycles=60, analyse_cycles=40)
     folder = save_campaign(camp, tmp_path / "camp")

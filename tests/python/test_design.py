@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 import xarray as xr
-from vadsim import design, thesis
+from vadsim.studies import design, thesis
 
 
 def _sweep(flows, scenario, j, m_ref=10.0):
@@ -79,8 +79,8 @@ def test_regime_intervals_and_comparison_on_a_constructed_sweep():
 
 
 def test_design_overrides_realise_the_gap_three_ways():
-    from vadsim.presets import get_preset
-    from vadsim.sweep import design_overrides
+    from vadsim.model.presets import get_preset
+    from vadsim.studies.sweep import design_overrides
 
     base = dict(get_preset("7in-cde").params)
     gap0 = base["L3"] - (base["L2"] + base["LS"] + base["LI"] + base["LOn"])

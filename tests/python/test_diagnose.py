@@ -10,7 +10,10 @@ import math
 
 import numpy as np
 import pytest
-from vadsim.candidates import (
+from vadsim.campaigns import save_campaign
+from vadsim.campaigns.synthetic import synthetic_campaign
+from vadsim.cli import main
+from vadsim.fit.candidates import (
     CANDIDATES,
     candidate,
     candidate_ids,
@@ -18,12 +21,9 @@ from vadsim.candidates import (
     lateral_coupling,
     mount_resonance,
 )
-from vadsim.cli import main
-from vadsim.diagnose import diagnose, make_folds, none_model, predict
+from vadsim.fit.diagnosis import diagnose, make_folds, none_model, predict
 from vadsim.fit.hypothesis import HypothesisFit
 from vadsim.model.change import ModelChange
-from vadsim.recordings import save_campaign
-from vadsim.synthetic import synthetic_campaign
 
 FS = 20480.0
 FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
@@ -97,12 +97,12 @@ def test_folds_leave_each_flow_out_and_hold_out_the_top_flows():
 
 
 def test_probe_subset_spans_the_flows_and_keeps_only_folds_it_can_score():
-    from vadsim.fit.diagnose import _probe_subset
+    from vadsim.fit.diagnosis.evidence import probe_subset
 
     flows = (200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0, 650.0)
     camp = synthetic_campaign("7in-cde", flows, cycles=40, analyse_cycles=20, noise_g=0.0)
     folds = make_folds(camp)
-    eids, kept = _probe_subset(camp, folds, 6)
+    eids, kept = probe_subset(camp, folds, 6)
     chosen = [ev.flow_gpm for ev in camp.events if ev.id in eids]
     assert len(eids) == 6 and min(chosen) == 200.0 and max(chosen) == 650.0
     assert max(np.diff(chosen)) <= 2 * (650.0 - 200.0) / 5  # evenly spread, no big gap
@@ -111,20 +111,20 @@ def test_probe_subset_spans_the_flows_and_keeps_only_folds_it_can_score():
     assert any(name.startswith("block") for name, _, _ in kept)
     assert len(kept) == 6 + 1  # a LOFO fold per chosen flow and the block
     small = synthetic_campaign("7in-cde", flows[:5], cycles=40, analyse_cycles=20)
-    assert _probe_subset(small, make_folds(small), 6)[0] == tuple(e.id for e in small.events)
+    assert probe_subset(small, make_folds(small), 6)[0] == tuple(e.id for e in small.events)
 
 
 def test_probe_subset_takes_the_worst_fitted_events_and_spreads_the_rest():
-    from vadsim.fit.diagnose import PROBE_WORST, _probe_subset
+    from vadsim.fit.diagnosis.evidence import PROBE_WORST, probe_subset
 
     flows = (200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0, 650.0)
     camp = synthetic_campaign("7in-cde", flows, cycles=40, analyse_cycles=20, noise_g=0.0)
     folds = make_folds(camp)
-    spread, _ = _probe_subset(camp, folds, 6)
+    spread, _ = probe_subset(camp, folds, 6)
     # the misfit sits in three events the flow-spread subset leaves out
     hidden = [e.id for e in camp.events if e.id not in spread][:PROBE_WORST]
     misfit = {e.id: (9.0 if e.id in hidden else 0.5) for e in camp.events}
-    eids, kept = _probe_subset(camp, folds, 6, misfit)
+    eids, kept = probe_subset(camp, folds, 6, misfit)
     assert len(eids) == 6 and set(hidden) <= set(eids)
     others = [ev.flow_gpm for ev in camp.events if ev.id in eids and ev.id not in hidden]
     rest = [ev.flow_gpm for ev in camp.events if ev.id not in hidden]
@@ -248,17 +248,18 @@ def test_an_effect_must_cut_the_all_event_error_too():
     0.38 against "none"'s 2.30 with a training RSS of 125.69 against 125.64: no gain at all."""
     from dataclasses import replace
 
-    from vadsim.fit.diagnose import _passes
+    from vadsim.fit.diagnosis.policy import Policy, passes
 
     none = replace(_scored(2.30, k=2, n_heldout=854), rss=125.64)
     resonance = replace(_scored(0.38, k=4, n_heldout=854), keys=("sensor_chain[x5]",),
                         point=(2000.0, 6.09), rss=125.69)
     assert resonance.score < none.score - 10 and resonance.heldout_rms < 0.7 * none.heldout_rms
-    assert not _passes(resonance, none, none, 10.0, 0.3)
+    assert not passes(resonance, none, none, Policy(min_delta=10.0, min_reduction=0.3))
     real = replace(resonance, rss=0.3 * none.rss)
-    assert _passes(real, none, none, 10.0, 0.3)
+    assert passes(real, none, none, Policy(min_delta=10.0, min_reduction=0.3))
     # the all-event test is against the model the effect extends
-    assert not _passes(real, none, replace(none, rss=0.5 * none.rss), 10.0, 0.3)
+    assert not passes(real, none, replace(none, rss=0.5 * none.rss),
+                      Policy(min_delta=10.0, min_reduction=0.3))
 
 
 def test_pairs_combine_the_candidates_that_showed_most_at_either_nuisance_anchor():
@@ -268,7 +269,7 @@ def test_pairs_combine_the_candidates_that_showed_most_at_either_nuisance_anchor
     anchor (one variant per physics), at the anchor where they showed."""
     from dataclasses import replace
 
-    from vadsim.fit.diagnose import pair_prospects
+    from vadsim.fit.diagnosis import pair_prospects
 
     rng = np.random.default_rng(3)
     calibrated, nominal = (1.098, 0.0779), (1.0, 2.264)
@@ -308,13 +309,13 @@ def test_pairs_combine_the_candidates_that_showed_most_at_either_nuisance_anchor
 def test_a_pair_with_a_vanished_candidate_is_a_single_effect():
     from dataclasses import replace
 
-    from vadsim.fit.diagnose import _any_vanishes
+    from vadsim.fit.diagnosis.policy import any_vanishes
 
     pair = replace(_scored(0.3, k=3), keys=("hydraulic_force[anvil]", "anvil_friction"),
                    point=(64.0, 2.0, 100.0))
-    assert not _any_vanishes(pair)
-    assert _any_vanishes(replace(pair, point=(0.0, 2.0, 100.0)))  # the force is gone
-    assert _any_vanishes(replace(pair, point=(64.0, 2.0, 0.0)))   # the friction is gone
+    assert not any_vanishes(pair)
+    assert any_vanishes(replace(pair, point=(0.0, 2.0, 100.0)))  # the force is gone
+    assert any_vanishes(replace(pair, point=(64.0, 2.0, 0.0)))   # the friction is gone
 
 
 def _selection_with(monkeypatch, step_fits, pair, screened=None):
@@ -323,14 +324,15 @@ def _selection_with(monkeypatch, step_fits, pair, screened=None):
     every pair returns (calls of both are counted, the screen's as ``"screen"``)."""
     from dataclasses import replace
 
-    from vadsim.fit import diagnose as dg
+    from vadsim.fit.diagnosis import search, selection
+    from vadsim.fit.diagnosis.policy import Policy
 
     screens = iter(step_fits)
     calls = []
-    monkeypatch.setattr(dg, "_screened", lambda *a, **k: next(screens))
-    monkeypatch.setattr(dg, "_densify", lambda ctx, ev, cev, fit, say: fit)
+    monkeypatch.setattr(search, "screened", lambda *a, **k: next(screens))
+    monkeypatch.setattr(selection, "densify", lambda ctx, ev, cev, fit, say: fit)
 
-    def pair_step(ctx, ev, coarse_ev, base, probes, opts, say, tried, tick):
+    def pair_step(ctx, ev, coarse_ev, base, probes, policy, say, tried, tick):
         calls.append(base.key)
         return [pair] if pair is not None else []
 
@@ -339,15 +341,15 @@ def _selection_with(monkeypatch, step_fits, pair, screened=None):
         assert all(frozenset(f.keys) not in skip for f in screened or [])
         return list(screened or [])
 
-    monkeypatch.setattr(dg, "_pair_step", pair_step)
-    monkeypatch.setattr(dg, "_screen_pairs", screen)
+    monkeypatch.setattr(search, "pair_step", pair_step)
+    monkeypatch.setattr(search, "screen_all_pairs", screen)
     base = replace(_scored(4.4, k=2, n_heldout=854), rss=10094.0)
-    opts = dict(max_effects=3, screen_top=1, noise_rms=1.0, max_rms=2.0, min_delta=10.0,
-                min_reduction=0.3)
+    policy = Policy(max_effects=3, screen_top=1, noise_rms=1.0, max_rms=2.0, min_delta=10.0,
+                    min_reduction=0.3)
     keys = ["contact_law", "sensor_chain[both]", "mass[bit]"]
     said: list[str] = []
-    sel = dg._forward_selection(None, None, None, base, base, keys, opts, said.append,
-                                lambda: None)
+    sel = selection.forward_selection(None, None, None, base, base, keys, policy, said.append,
+                                      lambda: None)
     return sel, calls, said
 
 
@@ -429,7 +431,7 @@ def test_a_cancelling_pair_is_found_by_the_screen_of_every_pair(monkeypatch):
 
 def test_the_pair_screen_covers_every_model_side_pair_once():
     from vadsim.fit.candidates import CANDIDATES, keys_for
-    from vadsim.fit.diagnose import screen_pairs
+    from vadsim.fit.diagnosis import screen_pairs
 
     pairs = screen_pairs(keys_for(None))
     model = [k for k in CANDIDATES if CANDIDATES[k].side == "model"]
@@ -653,18 +655,18 @@ def test_a_pairs_fit_refines_both_candidates_jointly_after_its_joint_grid():
     """A pair's joint grid can end a grid step from a narrow basin (blind-09: the grid point
     (50, 1.0, 2.2) at cost 4,451, the truth (40, 1.5, 2.0) at 39); a pair's full fit then
     refines every candidate parameter jointly, which a single extension does not."""
-    from vadsim.fit.diagnose import PAIR_REFINE_PER_PARAM, _candidate_stages
+    from vadsim.fit.diagnosis.hypotheses import PAIR_REFINE_PER_PARAM, candidate_stages
     from vadsim.fit.hypothesis import Hypothesis
     from vadsim.fit.nuisance import DEFAULT_NUISANCE
 
     hyp = Hypothesis(("hydraulic_force[anvil]", "contact_stiffness[impact]"), DEFAULT_NUISANCE)
     physics = (0, 1, 2)
-    stages = _candidate_stages(hyp, 1000.0, probed=True, pair=True)
+    stages = candidate_stages(hyp, 1000.0, probed=True, pair=True)
     joint_grid = next(i for i, st in enumerate(stages) if st.grid == physics)
     refined = [i for i, st in enumerate(stages) if st.grid is None and st.refine == physics]
     assert refined and refined[0] > joint_grid
     assert stages[refined[0]].maxfev == PAIR_REFINE_PER_PARAM * 3 >= 48
-    single = _candidate_stages(hyp, 1000.0, probed=True)
+    single = candidate_stages(hyp, 1000.0, probed=True)
     assert not [st for st in single if st.grid is None and st.refine == physics]
 
 
@@ -673,8 +675,8 @@ def test_values_at_the_edge_of_their_range_are_flagged_and_the_verdict_says_so()
     field tables' impact-face stiffness x0.25): the fit lists it, the verdict's sentence
     says so; a periodic constant (theta0) has no edge, and a candidate at its vanishing
     value is not "at a bound" but absent."""
-    from vadsim.fit.diagnose import edges_text
     from vadsim.fit.nuisance import DEFAULT_NUISANCE
+    from vadsim.report.text import edges_text
 
     def fit(keys, point):
         return HypothesisFit(keys=keys, nuisance_specs=DEFAULT_NUISANCE, point=point,
@@ -701,8 +703,8 @@ def test_the_progress_bar_says_what_the_diagnosis_does(hydraulic_campaign, monke
     """How many fits a diagnosis makes depends on what it finds (a screen of every pair can
     add hundreds and run for an hour), so its bar has no total and no ETA to mislead; its
     status says what it is doing, and the pair screen counts its pairs."""
-    import vadsim.fit.diagnose as diagnose_module
-    from vadsim.fit.diagnose import screen_pairs
+    import vadsim.fit.diagnosis.pipeline as diagnose_module
+    from vadsim.fit.diagnosis import screen_pairs
 
     statuses: list[str] = []
     totals: list[object] = []
@@ -746,7 +748,7 @@ def test_a_probe_that_gains_only_by_its_anchor_earns_no_full_fit(monkeypatch):
     values). Where the current model itself costs less at the nominal ones, every probe
     beats its start there, whatever its candidate: only a probe that beats the current
     model's own best cost (its candidate at the null, either anchor) earns a full fit."""
-    import vadsim.fit.diagnose as dg
+    from vadsim.fit.diagnosis import search as dg
     from vadsim.fit.nuisance import DEFAULT_NUISANCE
 
     current = HypothesisFit(
@@ -771,7 +773,7 @@ def test_a_probe_that_gains_only_by_its_anchor_earns_no_full_fit(monkeypatch):
     # rock stiffness gains 40 %
     probes = [probe("anvil_friction", 49.0), probe("string_radiation", 50.0),
               probe("rock_stiffness", 30.0)]
-    assert dg._current_cost(probes) == 50.0
+    assert dg.current_cost(probes) == 50.0
     calls: list[list[str]] = []
 
     def fit_all(ctx, jobs, ev, coarse_ev, say, tick=lambda *_s: None):
@@ -780,8 +782,8 @@ def test_a_probe_that_gains_only_by_its_anchor_earns_no_full_fit(monkeypatch):
         calls.append([j.hyp.keys[-1] for j in jobs])
         return [probes[pool.index(j.hyp.keys[-1])] for j in jobs]
 
-    monkeypatch.setattr(dg, "_fit_all", fit_all)
-    dg._screened(None, None, None, current, pool, 4, lambda _m: None, lambda *_s: None, {})
+    monkeypatch.setattr(dg, "fit_all", fit_all)
+    dg.screened(None, None, None, current, pool, 4, lambda _m: None, lambda *_s: None, {})
     assert calls == [["rock_stiffness"]]
     # without any probe at a null the start stays the reference (a resonance alone)
-    assert dg._current_cost([]) == math.inf
+    assert dg.current_cost([]) == math.inf

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.fit.candidates import CANDIDATES
-from vadsim.fit.diagnose import diagnose
+from vadsim.fit.diagnosis import diagnose
 
 SMALL = dict(cycles=160, analyse_cycles=100)
 TRIED = ["hydraulic_force[anvil]", "anvil_friction"]

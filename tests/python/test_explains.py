@@ -18,12 +18,13 @@ import vadsim
 import xarray as xr
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from vadsim import plots, thesis
+from vadsim import plots
 from vadsim.campaigns import Sensor
+from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.cli import main
 from vadsim.fit.validate import validate
 from vadsim.model.presets import PRESETS
-from vadsim.synthetic import synthetic_campaign
+from vadsim.studies import thesis
 
 
 def test_run_table_columns_are_explained(capsys):

@@ -1,4 +1,4 @@
-"""Tests of vadsim.features on constructed signals whose features are known analytically."""
+"""Tests of vadsim.signals.features on constructed signals whose features are known analytically."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from vadsim.compare import residual_table
-from vadsim.features import (
+from vadsim.signals.features import (
     DEFAULT_BANDS,
     REL_SPREAD_FLOOR,
     SPREAD_FLOORS,
@@ -21,7 +21,7 @@ from vadsim.features import (
     sensor_features,
     summary_features,
 )
-from vadsim.labels import impact_frequency, peak_stats, window_bounds, window_peaks
+from vadsim.signals.labels import impact_frequency, peak_stats, window_bounds, window_peaks
 
 RATE = 1024.0
 BAND_KEYS = [band_key(lo, hi) for lo, hi in DEFAULT_BANDS]
@@ -208,7 +208,8 @@ def test_white_noise_spreads_and_parseval() -> None:
         kind = "g" if key.endswith("_g") else "hz" if key.endswith("_hz") else "ratio"
         assert f.spread >= floor(f.value, kind)
     assert feats["impact_hz"].spread > SPREAD_FLOORS["hz"]  # noise peaks are irregular
-    assert feats["impact_hz"].value == impact_frequency(a, RATE)  # same rule as vadsim.labels
+    # the same rule as vadsim.signals.labels
+    assert feats["impact_hz"].value == impact_frequency(a, RATE)
 
 
 def test_tiny_noise_spreads_are_floored() -> None:

@@ -32,9 +32,9 @@ from hypothesis import strategies as st
 # Case generation and the oracle (shared by the subprocess worker and the in-process tests)
 # --------------------------------------------------------------------------------------------
 
-PARAM_RANGES: dict[str, tuple[str, float, float]] = vadsim.presets.param_ranges()
+PARAM_RANGES: dict[str, tuple[str, float, float]] = vadsim.model.presets.param_ranges()
 PARAM_RULES: dict[str, str] = {name: rng[0] for name, rng in PARAM_RANGES.items()}
-LENGTHS = tuple(row[0] for row in vadsim.presets.param_table() if row[1] == "l0")
+LENGTHS = tuple(row[0] for row in vadsim.model.presets.param_table() if row[1] == "l0")
 MAX_LENGTH_M = 1e3  # |L| * l0, and the static deflection wob / k (Params.validate, Model)
 EXCITATION_HZ = vadsim._core.EXCITATION_HZ_RANGE  # the flow's range follows from alpha
 PRESET_NAMES = ("7in-cde", "7in-rc", "9.5in-pdc")

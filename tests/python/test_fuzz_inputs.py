@@ -270,6 +270,7 @@ def test_fuzz_preset_files(key: str, value: Any, param: str, pvalue: Any,
 
 @pytest.fixture(scope="module")
 def store_chunk(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Any, str]:
+    from vadsim.studies import store as vstore
     from vadsim.studies import sweep as vsweep
 
     folder = tmp_path_factory.mktemp("fuzz-store") / "store"
@@ -279,7 +280,7 @@ def store_chunk(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Any, str
     grid = vsweep._make_grid(settings_, (200.0, 300.0), {"kS": (2e5, 4e5)},
                              mode="independent", gap_via="spring", detail="full",
                              workers=None, portable=True)
-    store = vsweep._Store.open(folder, grid)
+    store = vstore.Store.open(folder, grid)
     chunk = grid.chunks()[0]
     return store, chunk, (folder / f"{chunk.key}.json").read_text()
 
@@ -298,7 +299,7 @@ JSONISH = st.recursive(
        value=JSONISH, cut=st.integers(0, 3000), blob=st.binary(max_size=30))
 def test_fuzz_store_chunks(store_chunk: tuple[Any, Any, str], edit: str, field_: str,
                            value: Any, cut: int, blob: bytes) -> None:
-    from vadsim.studies.sweep import StoreWarning
+    from vadsim.studies.store import StoreWarning
 
     store, chunk, good = store_chunk
     path = store.path / f"{chunk.key}.json"

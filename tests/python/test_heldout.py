@@ -98,7 +98,7 @@ def test_a_candidate_vanishes_in_the_folds_only_where_every_scoring_point_has_it
     point where the candidate acts (that score is not one of the current model)."""
     from dataclasses import replace
 
-    from vadsim.fit.diagnose import _vanishes_in_folds
+    from vadsim.fit.diagnosis.policy import vanishes_in_folds as _vanishes_in_folds
     from vadsim.fit.hypothesis import HypothesisFit
 
     fit = HypothesisFit(keys=("anvil_friction",), nuisance_specs=(), point=(0.0,), k=1,

@@ -1,4 +1,4 @@
-"""Tests of vadsim.labels on constructed signals whose labels are known analytically."""
+"""Tests of vadsim.signals.labels on constructed signals whose labels are known analytically."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from vadsim.labels import (
+from vadsim.signals.labels import (
     SCENARIO_NONE,
     SCENARIO_SPRING_ONLY,
     Z_EQ_TOL,

@@ -5,9 +5,9 @@ import numpy as np
 import pandas as pd
 import pytest
 import vadsim
-from vadsim.locate import locate
-from vadsim.synthetic import synthetic_campaign
-from vadsim.validate import validate
+from vadsim.campaigns.synthetic import synthetic_campaign
+from vadsim.fit.locate import locate
+from vadsim.fit.validate import validate
 
 FLOWS = (200.0, 280.0, 360.0, 440.0, 520.0, 600.0)
 S = dict(cycles=100, analyse_cycles=60)

@@ -1,6 +1,6 @@
 """Tests of vadsim.plots (python/vadsim/plots/: flow, maps, design, traces, campaigns, style).
 
-Most figures are drawn from small synthetic datasets with the schema of vadsim.sweep (dims
+Most figures are drawn from small synthetic datasets with the schema of vadsim.studies.sweep (dims
 (*design_axes, "flow_gpm"), coordinate f_exc_hz along flow, one variable per sweep.FEATURES);
 only time_traces needs a real (tiny) run. Each test saves its figure as PNG into tmp_path and
 checks the figure's structure: number of axes, units in the axis labels, the regime legend,
@@ -26,11 +26,11 @@ from matplotlib.image import AxesImage
 from matplotlib.legend import Legend
 from matplotlib.text import Text
 from vadsim import plots
-from vadsim.features import Feature
-from vadsim.labels import regime_name
 from vadsim.plots.style import edges as cell_edges
 from vadsim.plots.style import feature_label
-from vadsim.sweep import FEATURES
+from vadsim.signals.features import Feature
+from vadsim.signals.labels import regime_name
+from vadsim.studies.sweep import FEATURES
 
 ALPHA = 0.67  # 7in tool: f = alpha Q / (2 pi)
 M_REF = 17.79  # kg, the 7in preset's reference mass
@@ -657,7 +657,7 @@ def fake_recorded() -> dict[str, dict[str, Feature]]:
 
 
 def fake_diagnosis() -> SimpleNamespace:
-    """What the diagnosis figures read of a vadsim.diagnose.Diagnosis (no model run)."""
+    """What the diagnosis figures read of a vadsim.fit.diagnosis.Diagnosis (no model run)."""
     eids = [f"e0{i + 1}" for i in range(len(CAMPAIGN_FLOWS))]
     # held-out z grows with the key's position, so the order of the panels is known
     heldout = {e: {k: (j + 1) * (i + 1) * 0.5 for j, k in enumerate(CAMPAIGN_KEYS)}
@@ -671,7 +671,7 @@ def fake_diagnosis() -> SimpleNamespace:
 
 
 def fake_validation() -> SimpleNamespace:
-    """What the validation figures read of a vadsim.validate.ValidationResult."""
+    """What the validation figures read of a vadsim.fit.validate.ValidationResult."""
     rec = fake_recorded()
     sims = {e: SimpleNamespace(sensor=dict(f), full=dict(f)) for e, f in rec.items()}
     res = pd.DataFrame({k: [0.5, -1.0, 2.0] for k in CAMPAIGN_KEYS}, index=list(rec))

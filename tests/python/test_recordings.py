@@ -1,4 +1,4 @@
-"""Tests of vadsim.recordings: the campaign format of RECORDINGS.md.
+"""Tests of vadsim.campaigns: the campaign format of RECORDINGS.md.
 
 Why so many small cases: the loader's value is that every kind of bad field file is caught and
 named precisely (file + line or key), so each rule gets its own case, and a fuzz test checks
@@ -23,11 +23,10 @@ import numpy as np
 import pandas as pd
 import pytest
 import vadsim
-import vadsim.recordings as rec
+import vadsim.campaigns as rec
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from vadsim.campaigns.format import excerpt
-from vadsim.recordings import (
+from vadsim.campaigns import (
     KNOWN_TOOLS,
     Campaign,
     CampaignError,
@@ -40,6 +39,7 @@ from vadsim.recordings import (
     save_campaign,
     thesis_campaigns,
 )
+from vadsim.campaigns.format import excerpt
 
 # Line numbers matter: the error cases below assert them.
 VALID_TOML = """\

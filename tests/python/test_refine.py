@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import vadsim.studies.sweep as vsweep
 from vadsim.studies.refine import CONTINUOUS, Refinement, fill, lattice, next_points
-from vadsim.sweep import sweep
+from vadsim.studies.sweep import sweep
 
 
 def _adaptive_on(truth: dict[str, np.ndarray], rule: Refinement):

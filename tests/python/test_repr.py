@@ -13,7 +13,7 @@ def test_a_run_shows_its_operating_point_labels_and_solver_work():
     page = html.unescape(r._repr_html_())
     assert page.startswith("<div>") and "7in-cde" in page
     assert "200 gal/min" in page
-    assert f"{r.scenario}: {vadsim.labels.regime_name(r.scenario)}" in page
+    assert f"{r.scenario}: {vadsim.signals.labels.regime_name(r.scenario)}" in page
     assert f"{r.stats['steps']} steps" in page
 
 

@@ -1,16 +1,19 @@
-"""The review of a chosen model once forward selection ends (vadsim.fit.diagnose._review):
+"""The review of a chosen model once forward selection ends (vadsim.fit.diagnosis._review):
 a variant chosen in place of the right one is swapped, an effect not needed on top of the
 others is dropped, and what is needed stays."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
-from vadsim.fit import diagnose as dmod
+from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.fit.candidates import CANDIDATES
-from vadsim.fit.diagnose import _siblings, _without, diagnose
+from vadsim.fit.diagnosis import diagnose
+from vadsim.fit.diagnosis import selection as dmod
+from vadsim.fit.diagnosis.hypotheses import siblings, without
 from vadsim.fit.hypothesis import Hypothesis, HypothesisFit
 from vadsim.model.change import ModelChange
-from vadsim.synthetic import synthetic_campaign
 
 FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
 SMALL = dict(cycles=160, analyse_cycles=100, duration_s=3.0, noise_g=0.3)
@@ -31,38 +34,38 @@ def _fit(keys: tuple[str, ...], point: tuple[float, ...]) -> HypothesisFit:
 def test_without_removes_or_replaces_a_candidate_and_keeps_the_others_values():
     fit = _fit(("contact_law", "sensor_chain[x1]", "mass[housing]"),
                (0.44, 0.5, 635.0, 4.8, 0.93))
-    hyp, point = _without(fit, "sensor_chain[x1]", "sensor_chain[both]")
+    hyp, point = without(fit, "sensor_chain[x1]", "sensor_chain[both]")
     assert hyp.keys == ("contact_law", "sensor_chain[both]", "mass[housing]")
     assert point == (0.44, 0.5, 635.0, 4.8, 0.93)
-    hyp, point = _without(fit, "mass[housing]")
+    hyp, point = without(fit, "mass[housing]")
     assert hyp.keys == ("contact_law", "sensor_chain[x1]") and point == (0.44, 0.5, 635.0, 4.8)
-    hyp, point = _without(fit, "contact_law")
+    hyp, point = without(fit, "contact_law")
     assert hyp.keys == ("sensor_chain[x1]", "mass[housing]") and point == (635.0, 4.8, 0.93)
     assert Hypothesis(hyp.keys).specs[0].name == "f_res_hz"
 
 
 def test_siblings_are_same_parameter_variants_cheap_or_already_fitted():
     keys = list(CANDIDATES)
-    sc = _siblings("sensor_chain[x1]", keys, ["sensor_chain[x1]"], fitted=())
+    sc = siblings("sensor_chain[x1]", keys, ["sensor_chain[x1]"], fitted=())
     assert set(sc) == {"sensor_chain[x5]", "sensor_chain[both]"}
     # a model-side variant only where it was fitted fully when the chosen one was
-    assert _siblings("mass[housing]", keys, ["mass[housing]"], fitted=()) == []
-    assert _siblings("mass[housing]", keys, ["mass[housing]"], fitted=["mass[bit]"]) == \
+    assert siblings("mass[housing]", keys, ["mass[housing]"], fitted=()) == []
+    assert siblings("mass[housing]", keys, ["mass[housing]"], fitted=["mass[bit]"]) == \
         ["mass[bit]"]
     # a variant already chosen is not a swap
-    assert "sensor_chain[both]" not in _siblings(
+    assert "sensor_chain[both]" not in siblings(
         "sensor_chain[x1]", keys, ["sensor_chain[x1]", "sensor_chain[both]"], fitted=())
 
 
 def _forced(monkeypatch, keys=None, **opts):
     """Forward selection run with other candidates or thresholds than the review's."""
-    real = dmod._forward_selection
+    real = dmod.forward_selection
 
-    def forced(ctx, ev, coarse_ev, base, none, all_keys, real_opts, say, tick):
+    def forced(ctx, ev, coarse_ev, base, none, all_keys, real_policy, say, tick):
         return real(ctx, ev, coarse_ev, base, none, list(keys or all_keys),
-                    {**real_opts, **opts}, say, tick)
+                    replace(real_policy, **opts), say, tick)
 
-    monkeypatch.setattr(dmod, "_forward_selection", forced)
+    monkeypatch.setattr(dmod, "forward_selection", forced)
 
 
 def test_a_variant_chosen_in_place_of_the_right_one_is_swapped(monkeypatch):

@@ -1,4 +1,4 @@
-"""Tests of vadsim.sensor: the sensor chain on signals with known outputs."""
+"""Tests of vadsim.signals.sensor: the sensor chain on signals with known outputs."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-from vadsim.sensor import sensor_chain
+from vadsim.signals.sensor import sensor_chain
 
 RATE = 1024.0
 FINE = 20 * RATE  # 20480 Hz: every sensor sample at phase 0 falls on a fine sample

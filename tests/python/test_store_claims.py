@@ -18,8 +18,10 @@ from typing import Any
 
 import pytest
 import xarray as xr
+from vadsim.studies import store as vstore
 from vadsim.studies import sweep as vsweep
-from vadsim.studies.sweep import StoreWarning, load_dataset, sweep
+from vadsim.studies.store import StoreWarning
+from vadsim.studies.sweep import load_dataset, sweep
 
 QUIET: dict[str, Any] = dict(cycles=20, analyse_cycles=10, progress=False)
 FLOWS = (200.0, 300.0)
@@ -38,8 +40,8 @@ def _sweep_with_claim(tmp_path: Path, filled: tuple[Path, xr.Dataset], claim: st
     """Sweep into a store whose first chunk holds ``claim``; the StoreWarnings, once the
     sweep ends (a hang fails the test). The grace periods are made endless: the claim must be
     found to be no one's from what it says, not from its age."""
-    monkeypatch.setattr(vsweep, "CLAIM_STALE_S", 1e9)
-    monkeypatch.setattr(vsweep, "CLAIM_WRITE_GRACE_S", 1e9)
+    monkeypatch.setattr(vstore, "CLAIM_STALE_S", 1e9)
+    monkeypatch.setattr(vstore, "CLAIM_WRITE_GRACE_S", 1e9)
     source, _ = filled
     store = tmp_path / "store"
     store.mkdir()
@@ -98,11 +100,11 @@ def test_a_live_claim_records_its_start_and_is_respected(tmp_path, filled):
     settings = vsweep.RunSettings("7in-cde", cycles=20, analyse_cycles=10)
     grid = vsweep._make_grid(settings, FLOWS, {"gap_ratio": GAPS}, mode="independent",
                              gap_via="spring", detail="full", workers=None, portable=True)
-    mine, other = vsweep._Store.open(store_dir, grid), vsweep._Store.open(store_dir, grid)
+    mine, other = vstore.Store.open(store_dir, grid), vstore.Store.open(store_dir, grid)
     chunk = grid.chunks()[0]
     assert mine.claim(chunk)
     record = json.loads((store_dir / f"{chunk.key}.claim").read_text())
-    assert record["pid"] == os.getpid() and record["start"] == vsweep.process_start(os.getpid())
+    assert record["pid"] == os.getpid() and record["start"] == vstore.process_start(os.getpid())
     assert record["start"] is not None  # on Linux, /proc gives it
     with warnings.catch_warnings():
         warnings.simplefilter("error", StoreWarning)

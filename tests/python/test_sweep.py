@@ -1,4 +1,4 @@
-"""Tests of vadsim.sweep (python/vadsim/sweep.py): flow sweeps and 2-D maps.
+"""Tests of vadsim.studies.sweep (python/vadsim/sweep.py): flow sweeps and 2-D maps.
 
 Why these tests: a regime map is thousands of runs spread over threads, Dask workers and
 interrupted sessions, so the things that can silently go wrong are bookkeeping, not physics:
@@ -29,16 +29,17 @@ from typing import Any
 import numpy as np
 import pytest
 import vadsim
-import vadsim.sweep as vsweep
+import vadsim.studies.store as vstore
+import vadsim.studies.sweep as vsweep
 import xarray as xr
 from _children import SIGINT_PRELUDE
+from vadsim.model.presets import get_preset
 from vadsim.model.settings import ExtraSpec, RunSettings
-from vadsim.presets import get_preset
-from vadsim.sweep import (
-    FEATURES,
+from vadsim.studies.rows import FEATURES
+from vadsim.studies.store import StoreWarning
+from vadsim.studies.sweep import (
     GAP_REALISATIONS,
     PointSpec,
-    StoreWarning,
     design_overrides,
     flow_sweep,
     flows_from_hz,
@@ -67,7 +68,7 @@ RESUME_KEYS = {f"chunk-{i}-{s}" for i in range(len(RESUME_GAPS))
 # give the parent time to kill it part-way through, whatever the machine's speed.
 _CHILD = """
 import json, sys, time
-import vadsim.sweep as vs
+import vadsim.studies.sweep as vs
 store, kw = sys.argv[1], json.loads(sys.argv[2])
 _run = vs.run_point
 def slow(spec):
@@ -614,7 +615,7 @@ def _put(store: Path, doc: Any, key: str = "chunk-1-0", *, reseal: bool = False)
     """Write a chunk file; ``reseal``: with a checksum that matches its (edited) rows, i.e. a
     chunk that lies consistently, so that the other checks are the ones that catch it."""
     if reseal:
-        doc["checksum"] = vsweep._checksum(doc["rows"])
+        doc["checksum"] = vstore._checksum(doc["rows"])
     (store / f"{key}.json").write_text(json.dumps(doc))
 
 
@@ -815,7 +816,7 @@ SHARE_KEYS = {f"chunk-{i}-{s}" for i in range(len(SHARE_GAPS))
 _SHARER = """
 import json, sys, time
 from pathlib import Path
-import vadsim.sweep as vs
+import vadsim.studies.sweep as vs
 store, barrier, me, out, kw = sys.argv[1:6]
 kw = json.loads(kw)
 computed = []
@@ -939,7 +940,7 @@ def test_stale_claims_are_taken_over(tmp_path: Path, filled_store: Path, base_ma
     dead.wait()
     _claim(store, "chunk-0-0", dead.pid)
     old = _claim(store, "chunk-1-0", 1, host="elsewhere.example")
-    past = time.time() - vsweep.CLAIM_STALE_S - 60
+    past = time.time() - vstore.CLAIM_STALE_S - 60
     os.utime(old, (past, past))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -963,7 +964,7 @@ def test_claim_never_written_is_taken_over(tmp_path: Path, filled_store: Path,
     (store / "grid.json").write_text((filled_store / "grid.json").read_text())
     empty = store / "chunk-0-0.claim"
     empty.write_text("")
-    past = time.time() - vsweep.CLAIM_WRITE_GRACE_S - 5
+    past = time.time() - vstore.CLAIM_WRITE_GRACE_S - 5
     os.utime(empty, (past, past))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -5,7 +5,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 import vadsim
-from vadsim.thesis import field_events
+from vadsim.studies.thesis import field_events
 
 EVENTS = field_events("9.5in", "PDC")
 

@@ -5,11 +5,13 @@ import math
 import numpy as np
 import pytest
 from vadsim import RunSettings
-from vadsim.calibrate import calibrate, thesis_targets
+from vadsim.campaigns import load_campaign, save_campaign
+from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import event_residuals, simulate_event
-from vadsim.recordings import load_campaign, save_campaign
-from vadsim.synthetic import synthetic_campaign
-from vadsim.validate import findings, validate, write_report
+from vadsim.fit.calibrate import calibrate, thesis_targets
+from vadsim.fit.validate import validate
+from vadsim.report.validation import findings
+from vadsim.report.validation import write_validation_report as write_report
 
 SHORT = dict(cycles=80, analyse_cycles=50)
 
@@ -56,7 +58,7 @@ def test_residuals_combine_recorded_and_phase_spreads(campaign):
     ev = campaign.events[2]  # 600 gal/min: 16.0 samples per excitation cycle at 1024 Hz
     sim = simulate_event(campaign, ev, RunSettings("7in-cde", **SHORT))
     assert sim.phase_sd["x1_peak_mean_g"] > 0
-    from vadsim.features import Feature
+    from vadsim.signals.features import Feature
 
     rec = {"x1_peak_mean_g": Feature(sim.sensor["x1_peak_mean_g"].value + 1.0, 0.5, 10)}
     z = event_residuals(sim, rec)["x1_peak_mean_g"]
@@ -85,7 +87,7 @@ def test_calibration_recovers_a_changed_excitation(campaign):
 
 
 def test_thesis_targets_and_bad_input():
-    from vadsim.recordings import thesis_campaigns
+    from vadsim.campaigns import thesis_campaigns
 
     t = thesis_targets(thesis_campaigns()["9.5in-pdc"])
     assert all("z_impact" in v for v in t.values())  # every 9.5in event: 1 impact/cycle
@@ -103,7 +105,7 @@ def test_validation_of_a_clipped_sensor_says_what_was_not_compared(tmp_path) -> 
     peak features were not compared (it used to raise KeyError in the report)."""
     import warnings
 
-    from vadsim.recordings import Sensor
+    from vadsim.campaigns import Sensor
 
     sensors = {"x1": Sensor("x1", 1, 1024.0, 5.0), "x5": Sensor("x5", 5, 1024.0, 250.0)}
     with warnings.catch_warnings():
