@@ -268,13 +268,14 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from vadsim.fit.diagnosis import diagnose, predict
+    from vadsim.fit.diagnosis.pipeline import diagnose, predict
     from vadsim.fit.nuisance import DEFAULT_NUISANCE
     from vadsim.report.diagnosis import write_diagnosis_report
 
     nuisance: list[Any] = [] if args.no_nuisance else [*DEFAULT_NUISANCE, *(args.nuisance or [])]
-    diag = diagnose(_campaign(args), candidates=args.candidates, nuisance=nuisance,
-                    overrides=parse_overrides(args.set), cycles=args.cycles,
+    campaign, overrides = _campaign(args), parse_overrides(args.set)
+    diag = diagnose(campaign, candidates=args.candidates, nuisance=nuisance,
+                    overrides=overrides, cycles=args.cycles,
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
                     max_effects=args.max_effects, max_rms=args.max_rms,

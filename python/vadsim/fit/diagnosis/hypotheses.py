@@ -93,11 +93,8 @@ def calibrate_base(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvalu
     every = tuple(range(len(hyp.specs)))
     stages = ([Stage(grid=every, refine=every, maxfev=10 * len(every), starts=3, coarse=True)]
               if every else [])
-    c0 = coarse_ev.n_evals
-    fit = fit_hypothesis(ev, hyp, hyp.null_point(), stages, ctx.folds, list(ctx.eids), say,
-                         coarse=(coarse_ev, list(ctx.probe_eids)))
-    ev.n_evals += coarse_ev.n_evals - c0
-    return fit
+    return fit_hypothesis(ev, hyp, hyp.null_point(), stages, ctx.folds, list(ctx.eids), say,
+                          coarse=(coarse_ev, list(ctx.probe_eids)))
 
 
 def model_side(hyp: Hypothesis, keys: Sequence[str] | None = None) -> bool:
@@ -185,10 +182,8 @@ def densify(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     choose among as dense a set of points as the next step's hypotheses do: held-out scores
     compared across steps must not differ by how densely each was searched."""
     hyp = fit.hypothesis
-    c0 = coarse_ev.n_evals
     out = fit_hypothesis(ev, hyp, fit.point, refit_stages(hyp), ctx.folds, list(ctx.eids),
                          say, coarse=(coarse_ev, list(ctx.probe_eids)))
-    ev.n_evals += coarse_ev.n_evals - c0
     return out if out.rss <= fit.rss else fit
 
 

@@ -73,9 +73,7 @@ def fit_all(ctx: Context, jobs: list[Job], ev: CampaignEvaluator,
     if not ctx.scheduler and (ev.workers <= 1 or len(jobs) <= 1):
         fits = []
         for j in jobs:
-            c0 = coarse_ev.n_evals
             fits.append(run_job(ctx, ev, coarse_ev, j, say))
-            ev.n_evals += coarse_ev.n_evals - c0
             tick()
         return fits
     # model-side candidates first: they take longest
@@ -90,7 +88,7 @@ def fit_all(ctx: Context, jobs: list[Job], ev: CampaignEvaluator,
             for fut in finished(futures):
                 f = fut.result()
                 out[futures[fut]] = f
-                ev.n_evals += f.n_evals
+                ev.n_evals += f.n_evals  # the job's engines ran elsewhere: count them here
                 tick()
                 say(f"{f.key}: held-out RMS {f.heldout_rms:.3f}, score {f.score:.1f}")
     finally:

@@ -167,8 +167,8 @@ def diagnose(
                           overrides=dict(settings.overrides),
                           noise_g={k: round(v, 4) for k, v in ev.noise_g.items()},
                           **pol.as_dict()),
-            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals, pairs=sel.pairs,
-            review=reviewed,
+            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals + coarse_ev.n_evals,
+            pairs=sel.pairs, review=reviewed,
         )
 
 

@@ -220,9 +220,7 @@ def screen_all_pairs(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEva
         return []
     hyp0 = base.hypothesis
     anchors = list(dict.fromkeys([base.point, hyp0.null_point()]))
-    c0 = coarse_ev.n_evals
     base_rss = HypothesisCosts(coarse_ev, hyp0, eids).event_rss(anchors).sum(axis=1)
-    ev.n_evals += coarse_ev.n_evals - c0
     at = int(np.argmin(base_rss))
     anchor, base_cost = anchors[at], float(base_rss[at])
     say(f"pair screen: joint probes of {len(pairs)} model-side pairs on "
