@@ -24,11 +24,11 @@ from vadsim.campaigns.format import (
 )
 from vadsim.campaigns.reading import (
     CampaignPathError,
-    TomlContext,
     parse_document,
     time_problem,
     tool_file,
 )
+from vadsim.campaigns.toml_keys import TomlContext
 
 __all__ = ["save_campaign"]
 
