@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from vadsim.campaigns.event_csv import open_regular, read_event_csv, time_problem
+from vadsim.campaigns.event_csv import open_regular, read_event_csv
 from vadsim.campaigns.format import (
     CAMPAIGN_FILE,
     EXCERPT_CHARS,
@@ -39,7 +39,7 @@ from vadsim.campaigns.format import (
 from vadsim.campaigns.toml_keys import BARE_KEY_RE, TomlContext
 
 __all__ = ["CampaignPathError", "campaign_path", "load_campaign", "parse_document",
-           "time_problem", "tool_file"]
+           "tool_file"]
 
 _TOP_KEYS = ("name", "tool", "bit", "wob_klbf", "description", "sensors", "events")
 _SENSOR_KEYS = ("dof", "rate_hz", "range_g", "lowpass_hz")
