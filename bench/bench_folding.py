@@ -31,8 +31,8 @@ from vadsim.compare import (
     recorded_features,
     run_event,
 )
+from vadsim.model.result import G
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G
 from vadsim.signals.fold_features import spike_origin
 from vadsim.signals.folding import fold, fold_fine
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING

@@ -33,15 +33,9 @@ from vadsim.model.presets import (
     param_names,
     preset_names,
 )
+from vadsim.model.result import SURFACES, G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import (
-    SURFACES,
-    G,
-    SimulationResult,
-    SolverError,
-    extra_force,
-    simulate,
-)
+from vadsim.model.simulate import SolverError, extra_force, simulate
 
 _aliases.install()
 

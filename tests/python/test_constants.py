@@ -184,7 +184,8 @@ def _map(param: str, regimes: list[int], rare: int | None = None) -> xr.Dataset:
 
 
 def test_map_counts_name_what_the_maps_hold_and_why_a_count_misses(tmp_path):
-    from vadsim.studies.reproduction import _map_rows, map_regime_counts, thesis_maps
+    from vadsim.studies.reproduction import thesis_maps
+    from vadsim.studies.reproduction_rows import _map_rows, map_regime_counts
 
     with pytest.raises(ValueError, match="spring_steps = 1 must be an integer >= 2"):
         thesis_maps("7in-cde", tmp_path, spring_steps=1)

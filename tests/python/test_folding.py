@@ -17,8 +17,8 @@ from vadsim.compare import (
     recorded_features,
     run_event,
 )
+from vadsim.model.result import G
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G
 from vadsim.signals.fold_features import (
     model_fold_features,
     recorded_fold_features,

@@ -24,8 +24,9 @@ import pandas as pd
 from vadsim.campaigns.format import Sensor
 from vadsim.campaigns.synthetic import DEFAULT_SENSORS
 from vadsim.model.presets import get_preset
+from vadsim.model.result import G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G, SimulationResult, simulate
+from vadsim.model.simulate import simulate
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
 __all__ = ["RECORD_COLUMNS", "FlowStepTest", "flow_step_test"]

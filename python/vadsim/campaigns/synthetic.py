@@ -20,8 +20,8 @@ from vadsim.campaigns import Campaign, Event, Sensor
 from vadsim.model.change import ModelChange
 from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import Preset, get_preset
+from vadsim.model.result import G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G, SimulationResult
 from vadsim.model.steady import steady_run
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 

@@ -39,8 +39,9 @@ from vadsim.compare.residuals import event_residuals
 from vadsim.model.cache import ResultCache, Uncacheable, default_cache
 from vadsim.model.change import ModelChange
 from vadsim.model.defaults import DEFAULTS
+from vadsim.model.result import SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import SimulationResult, SolverError
+from vadsim.model.simulate import SolverError
 from vadsim.signals.features import Feature
 from vadsim.signals.fold_features import (
     fold_periods,

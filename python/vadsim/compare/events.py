@@ -21,8 +21,8 @@ import numpy as np
 from vadsim.campaigns.format import CAMPAIGN_FILE, Campaign, Event, excerpt
 from vadsim.model.change import Measurement
 from vadsim.model.defaults import DEFAULTS
+from vadsim.model.result import G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G, SimulationResult
 from vadsim.model.steady import steady_run
 from vadsim.signals.features import Feature, event_features, summary_features
 from vadsim.signals.fold_features import (

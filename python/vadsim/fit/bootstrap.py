@@ -27,7 +27,8 @@ import numpy as np
 from vadsim.campaigns.synthetic import record_run
 from vadsim.compare import CampaignEvaluator, EventSimulation, fine_rate_hz, recorded_features
 from vadsim.model.change import ModelChange
-from vadsim.model.simulate import SimulationResult, SolverError
+from vadsim.model.result import SimulationResult
+from vadsim.model.simulate import SolverError
 from vadsim.model.steady import steady_run
 
 __all__ = ["BOOTSTRAP_RUNS", "cost_rises"]

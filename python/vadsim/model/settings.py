@@ -29,7 +29,8 @@ from vadsim.model.presets import (
     make_params,
     override_values,
 )
-from vadsim.model.simulate import SimulationResult, extra_force, simulate
+from vadsim.model.result import SimulationResult
+from vadsim.model.simulate import extra_force, simulate
 
 __all__ = ["ExtraSpec", "RunSettings", "excitation_hz"]
 

@@ -20,8 +20,9 @@ from typing import Any
 import numpy as np
 
 from vadsim.model.presets import get_preset, make_params
+from vadsim.model.result import SURFACES, G
 from vadsim.model.settings import ExtraSpec, RunSettings
-from vadsim.model.simulate import SURFACES, G, SolverError
+from vadsim.model.simulate import SolverError
 from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
 from vadsim.studies.refine import Refinement
 from vadsim.studies.rows import FEATURES
