@@ -9,13 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 from vadsim.compare import residual_table
+from vadsim.signals.bands import DEFAULT_BANDS, band_edges_for, band_key
 from vadsim.signals.features import (
-    DEFAULT_BANDS,
     REL_SPREAD_FLOOR,
     SPREAD_FLOORS,
     Feature,
-    band_edges_for,
-    band_key,
     event_features,
     features_table,
     sensor_features,
