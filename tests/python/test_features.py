@@ -14,12 +14,11 @@ from vadsim.signals.features import (
     REL_SPREAD_FLOOR,
     SPREAD_FLOORS,
     Feature,
-    event_features,
     features_table,
-    sensor_features,
     summary_features,
 )
 from vadsim.signals.labels import impact_frequency, peak_stats, window_bounds, window_peaks
+from vadsim.signals.window_features import event_features, sensor_features
 
 RATE = 1024.0
 BAND_KEYS = [band_key(lo, hi) for lo, hi in DEFAULT_BANDS]

@@ -24,13 +24,14 @@ from vadsim.model.defaults import DEFAULTS
 from vadsim.model.settings import RunSettings
 from vadsim.model.simulate import G, SimulationResult
 from vadsim.model.steady import steady_run
-from vadsim.signals.features import Feature, event_features, summary_features
+from vadsim.signals.features import Feature, summary_features
 from vadsim.signals.fold_features import (
     model_fold_features,
     noise_floor_g,
     recorded_fold_features,
 )
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, FilteredSignal
+from vadsim.signals.window_features import event_features
 
 __all__ = ["FAILED_RESIDUAL", "FAILED_RUN", "FOLDED", "ORBIT_OVERSAMPLING", "WARM_SETTLE_CYCLES",
            "EventSimulation", "WarmStart", "cached_simulation", "fine_rate_hz", "fine_series",

@@ -3,12 +3,13 @@ signal in each band, window by window.
 
 Why this module exists: besides the window peaks and the impact rate, a record is compared by
 its amplitude spectrum in a few frequency bands (keys ``<sensor>_band_<lo>_<hi>_g`` of
-:func:`vadsim.signals.features.sensor_features`). The bands are laid out for the 1024 Hz field
-sensors (:data:`DEFAULT_BANDS`) and adapted to any other sampling rate up to its Nyquist rate
-(:func:`band_edges_for`), so that a recording and a full-resolution simulation share the bands
-they both have. :func:`band_rms` measures the RMS in each band of each 200 ms window, scaled
-so that a sine of amplitude A inside a band gives A / sqrt(2) whether or not it falls on a
-frequency bin; the feature is the mean over the windows, its spread their standard deviation.
+:func:`vadsim.signals.window_features.sensor_features`). The bands are laid out for the
+1024 Hz field sensors (:data:`DEFAULT_BANDS`) and adapted to any other sampling rate up to its
+Nyquist rate (:func:`band_edges_for`), so that a recording and a full-resolution simulation
+share the bands they both have. :func:`band_rms` measures the RMS in each band of each 200 ms
+window, scaled so that a sine of amplitude A inside a band gives A / sqrt(2) whether or not it
+falls on a frequency bin; the feature is the mean over the windows, its spread their standard
+deviation.
 """
 
 from __future__ import annotations
