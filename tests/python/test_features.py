@@ -9,19 +9,16 @@ import numpy as np
 import pandas as pd
 import pytest
 from vadsim.compare import residual_table
+from vadsim.signals.bands import DEFAULT_BANDS, band_edges_for, band_key
 from vadsim.signals.features import (
-    DEFAULT_BANDS,
     REL_SPREAD_FLOOR,
     SPREAD_FLOORS,
     Feature,
-    band_edges_for,
-    band_key,
-    event_features,
     features_table,
-    sensor_features,
     summary_features,
 )
 from vadsim.signals.labels import impact_frequency, peak_stats, window_bounds, window_peaks
+from vadsim.signals.window_features import event_features, sensor_features
 
 RATE = 1024.0
 BAND_KEYS = [band_key(lo, hi) for lo, hi in DEFAULT_BANDS]

@@ -19,12 +19,10 @@ from vadsim.compare import (
 )
 from vadsim.model.result import G
 from vadsim.model.settings import RunSettings
-from vadsim.signals.fold_features import (
-    model_fold_features,
-    recorded_fold_features,
-    spike_origin,
-)
+from vadsim.signals.fold_features import recorded_fold_features
+from vadsim.signals.fold_waveform import spike_origin
 from vadsim.signals.folding import BLOCK_S, FOLD_BINS, fold, fold_fine
+from vadsim.signals.model_folds import model_fold_features
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING
 
 RATE = 1024.0
@@ -274,7 +272,8 @@ def test_the_engine_sees_what_folded_evidence_shows():
 def test_the_models_quantiles_carry_the_recordings_noise():
     """Half-normal quantiles for pure noise (|n|, n ~ N(0, s^2): 0.674 s, 1.645 s, 2.576 s),
     the plain quantiles without noise, and the rails clip."""
-    from vadsim.signals.fold_features import QUANTILES, noisy_quantiles
+    from vadsim.signals.fold_features import QUANTILES
+    from vadsim.signals.model_folds import noisy_quantiles
 
     zero = np.zeros(400_000)
     assert noisy_quantiles(zero, 2.0) == pytest.approx(2.0 * np.array([0.6745, 1.6449, 2.5758]),

@@ -24,13 +24,14 @@ from vadsim.model.defaults import DEFAULTS
 from vadsim.model.result import G, SimulationResult
 from vadsim.model.settings import RunSettings
 from vadsim.model.steady import steady_run
-from vadsim.signals.features import Feature, event_features, summary_features
+from vadsim.signals.features import Feature, summary_features
 from vadsim.signals.fold_features import (
-    model_fold_features,
     noise_floor_g,
     recorded_fold_features,
 )
+from vadsim.signals.model_folds import model_fold_features
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, FilteredSignal
+from vadsim.signals.window_features import event_features
 
 __all__ = ["FAILED_RESIDUAL", "FAILED_RUN", "FOLDED", "ORBIT_OVERSAMPLING", "WARM_SETTLE_CYCLES",
            "EventSimulation", "WarmStart", "cached_simulation", "fine_rate_hz", "fine_series",
@@ -361,7 +362,7 @@ def measure_event(
     without running the model again.
 
     With ``folded`` (default :data:`FOLDED`) the sensor features also hold every folded and
-    distribution feature a recording may have (:func:`vadsim.signals.fold_features.
+    distribution feature a recording may have (:func:`vadsim.signals.model_folds.
     model_fold_features`: the fine grid through each sensor's low-pass and range, folded at
     the run's exact frequency, for periods 1-4), with a ``phase_sd`` of 0: a fold has no
     sampling phase. The recording's keys select which are compared.
@@ -376,7 +377,7 @@ def measure_event(
     sampled series, drawn from ``seed``: a recording's window features (peaks, quantiles,
     impacts) carry its noise, e.g. a 200 ms peak of a 1 g-noise record is the peak of signal
     plus noise (:func:`recorded_noise_g`). Folds are taken without it (a fold averages noise
-    out), the quantiles of ``|a|`` with it (:func:`vadsim.signals.fold_features.
+    out), the quantiles of ``|a|`` with it (:func:`vadsim.signals.model_folds.
     noisy_quantiles`).
     """
     if not (isinstance(phases, int) and phases >= 1):

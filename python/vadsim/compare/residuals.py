@@ -14,9 +14,7 @@ import pandas as pd
 
 from vadsim.compare.events import EventSimulation
 from vadsim.signals.features import Feature
-from vadsim.signals.fold_features import (
-    ALT_MARK,
-)
+from vadsim.signals.model_folds import ALT_MARK
 
 __all__ = ["event_residuals", "residual_table", "standardised_residual"]
 
@@ -66,8 +64,9 @@ def event_residuals(sim: EventSimulation, rec: Mapping[str, Feature],
 def _best_alignment(out: dict[str, float], feats: Mapping[str, Feature],
                     rec: Mapping[str, Feature], phase_sd: Mapping[str, float]) -> None:
     """Where the model's fold of period n > 1 comes under alternative alignments (keys
-    ``<key>@cycle<c>``, :mod:`vadsim.signals.fold_features`, "Alignment"), take for each
-    period the one whose residuals over every sensor's features of that fold are smallest."""
+    ``<key>@cycle<c>``, :mod:`vadsim.signals.model_folds`, "Alternative alignments"), take for
+    each period the one whose residuals over every sensor's features of that fold are
+    smallest."""
     alts: dict[str, set[str]] = {}
     for key in feats:
         if ALT_MARK in key:
