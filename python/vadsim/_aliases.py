@@ -19,7 +19,7 @@ import warnings
 from types import ModuleType
 from typing import Any
 
-__all__ = ["ALIASES", "deprecated", "install"]
+__all__ = ["ALIASES", "MOVED_OUT", "deprecated", "install"]
 
 ALIASES: dict[str, str] = {
     "vadsim.presets": "vadsim.model.presets",
@@ -41,6 +41,13 @@ ALIASES: dict[str, str] = {
 }
 """Old module path -> the module that now holds it."""
 
+MOVED_OUT: dict[str, tuple[str, ...]] = {
+    "vadsim.simulate": ("vadsim.model.result",),
+    "vadsim.features": ("vadsim.signals.window_features", "vadsim.signals.bands"),
+}
+"""Old module path -> the modules that 0.2 split out of its new module: a name read from the
+old path is looked up there too, so a 0.1 script keeps working (with the warning)."""
+
 
 def deprecated(old: str, stacklevel: int = 3) -> None:
     """Warn that ``old`` is an old import path, naming the new one."""
@@ -59,10 +66,18 @@ class _Forwarding(ModuleType):
         if name.startswith("__") and name.endswith("__"):
             raise AttributeError(name)
         deprecated(self.__name__)
-        return getattr(importlib.import_module(self.__dict__["_vadsim_target"]), name)
+        for target in self._targets():
+            module = importlib.import_module(target)
+            if hasattr(module, name):
+                return getattr(module, name)
+        raise AttributeError(f"module {self.__name__!r} (now {self._targets()[0]}) has no "
+                             f"attribute {name!r}")
+
+    def _targets(self) -> tuple[str, ...]:
+        return (self.__dict__["_vadsim_target"], *MOVED_OUT.get(self.__name__, ()))
 
     def __dir__(self) -> list[str]:
-        return dir(importlib.import_module(self.__dict__["_vadsim_target"]))
+        return sorted({n for t in self._targets() for n in dir(importlib.import_module(t))})
 
 
 class _AliasLoader(importlib.abc.Loader):

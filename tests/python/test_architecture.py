@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 import vadsim
-from vadsim._aliases import ALIASES
+from vadsim._aliases import ALIASES, MOVED_OUT
 
 PACKAGE = Path(vadsim.__file__).resolve().parent
 
@@ -156,6 +156,17 @@ def test_old_import_paths_read_the_new_modules_with_a_warning(old: str) -> None:
         got = getattr(module, name)
     assert got is getattr(new, name)
     assert callable(vadsim.simulate), "importing an old path must not replace vadsim.simulate"
+
+
+@pytest.mark.parametrize("old", sorted(MOVED_OUT))
+def test_old_paths_reach_the_names_split_out_of_their_module(old: str) -> None:
+    """A 0.1 script reads every public name of the old module, wherever 0.2 put it."""
+    module = importlib.import_module(old)
+    for moved in MOVED_OUT[old]:
+        target = importlib.import_module(moved)
+        for name in getattr(target, "__all__", []):
+            with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated"):
+                assert getattr(module, name) is getattr(target, name)
 
 
 @pytest.mark.parametrize("short", sorted(o.split(".", 1)[1] for o in ALIASES
