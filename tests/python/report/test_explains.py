@@ -5,7 +5,7 @@ aligned and says what each preset is for (and what -cal and -thesis mean); a pre
 parameters say they are per kg of m*; ``repr(result)`` is a short summary, not 249 lines of
 arrays; an unknown parameter gets "did you mean"; the regime comparison fits 80 columns and
 says which preset meets the bands; figure titles fit inside their figures. (The diagnosis
-summary's terms: tests/python/test_diagnose.py::test_summary_explains_its_terms.)
+summary's terms: tests/python/fit/diagnosis/test_diagnose.py::test_summary_explains_its_terms.)
 """
 
 from __future__ import annotations

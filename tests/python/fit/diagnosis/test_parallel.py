@@ -44,6 +44,7 @@ def test_two_worker_processes_give_the_same_diagnosis(campaign, one_worker):
     assert _diagnosis(campaign, workers=2) == one_worker
 
 
+@pytest.mark.slow
 def test_a_dask_cluster_of_four_workers_gives_the_same_diagnosis(campaign, one_worker):
     distributed = pytest.importorskip("dask.distributed")
     with distributed.LocalCluster(n_workers=4, threads_per_worker=1, processes=True,

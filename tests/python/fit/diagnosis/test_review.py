@@ -68,6 +68,7 @@ def _forced(monkeypatch, keys=None, **opts):
     monkeypatch.setattr(dmod, "forward_selection", forced)
 
 
+@pytest.mark.slow
 def test_a_variant_chosen_in_place_of_the_right_one_is_swapped(monkeypatch):
     """A mount resonance on both sensors; forward selection may only name it on x1 (as it
     did on blind-12, where a contact law had absorbed the rest): the review refits it as
@@ -85,6 +86,7 @@ def test_a_variant_chosen_in_place_of_the_right_one_is_swapped(monkeypatch):
     assert d.as_json()["review"] == d.review
 
 
+@pytest.mark.slow
 def test_an_effect_not_needed_on_top_of_the_others_is_dropped_and_the_needed_one_stays(
         monkeypatch):
     """A hydraulic force alone; forward selection with every threshold off adds a contact

@@ -24,6 +24,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import pytest
 import vadsim
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -457,6 +458,7 @@ def _wait_with_hang_guard(procs: list) -> set[int]:
         time.sleep(0.2)
 
 
+@pytest.mark.slow
 def test_fuzz_subprocess_never_crashes(tmp_path):
     procs = []
     for seed in SEEDS:
@@ -641,5 +643,5 @@ if __name__ == "__main__":
     if len(sys.argv) == 4 and sys.argv[1] == "--worker":
         worker(int(sys.argv[2]), int(sys.argv[3]))
     else:
-        print("usage: test_fuzz.py --worker SEED N", file=sys.stderr)
+        print("usage: test_simulate_fuzz.py --worker SEED N", file=sys.stderr)
         sys.exit(2)

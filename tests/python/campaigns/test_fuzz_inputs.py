@@ -8,7 +8,7 @@ cases take well under a minute on two cores. Each test also tallies what it saw;
 checks the tallies and writes them, with this process' peak memory, to
 ``$VADSIM_FUZZ_REPORT`` (a JSON file) when that is set::
 
-    VADSIM_FUZZ_REPORT=/tmp/fuzz.json python -m pytest -q tests/python/test_fuzz_inputs.py
+    VADSIM_FUZZ_REPORT=/tmp/fuzz.json python -m pytest -q tests/python/campaigns/test_fuzz_inputs.py
 """
 
 from __future__ import annotations

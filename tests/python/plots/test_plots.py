@@ -479,8 +479,8 @@ def test_design_comparison_bad_input():
 
 
 @pytest.fixture(scope="module")
-def run():
-    return vadsim.simulate("7in-cde", 200, cycles=10, analyse_cycles=5)
+def run(tiny_run):
+    return tiny_run
 
 
 def test_time_traces_three_panels(tmp_path, run):
@@ -515,7 +515,7 @@ def test_time_traces_three_panels(tmp_path, run):
         assert sum(ln.get_linestyle() == ":" for ln in ax.get_lines()) == n_onsets
     assert "#2 impact face onset" in legend_texts(ax_a)
     assert "200 gal/min" in fig.get_suptitle() and "7in-cde" in fig.get_suptitle()
-    assert "run of 10 cycles (last 5 analysed)" in fig.get_suptitle()
+    assert "run of 20 cycles (last 10 analysed)" in fig.get_suptitle()
 
 
 def test_time_traces_bad_input(run):

@@ -42,6 +42,7 @@ def test_cost_is_lowest_at_the_truth_among_its_aliases(campaign):
         assert alias > truth, (k, wob, alias, truth)
 
 
+@pytest.mark.slow
 def test_calibration_recovers_l0_and_wob_within_5_percent(campaign):
     res = calibrate(campaign, ("l0", "wob"), start={"l0": 0.74, "wob": 700.0},
                     bounds={"l0": (0.66, 0.74), "wob": (700.0, 1400.0)}, n_global=16,
@@ -59,6 +60,7 @@ def fo_campaign():
     return synthetic_campaign("7in-cde", (200, 450, 600), overrides={"Fo": 380.0})
 
 
+@pytest.mark.slow
 def test_the_readme_interval_holds_the_truth_with_a_measured_threshold(fo_campaign):
     """The README's calibration: its 95 % interval holds the true Fo = 380 without spanning
     the whole search range, and its threshold is the bootstrap's (measured on campaigns the

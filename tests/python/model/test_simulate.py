@@ -34,8 +34,9 @@ EVENT_KINDS = ["onset", "release", "lift", "relatch"]
 
 
 @pytest.fixture(scope="module")
-def r200():
-    return vadsim.simulate("7in-cde", 200, **SHORT)
+def r200(tiny_run):
+    """The shared 20-cycle run at 200 gal/min (``SHORT``)."""
+    return tiny_run
 
 
 @pytest.fixture(scope="module")

@@ -472,6 +472,7 @@ def hydraulic_diagnosis(hydraulic_campaign):
     return _diagnose(hydraulic_campaign, candidates=TRIED)
 
 
+@pytest.mark.slow
 def test_summary_explains_its_terms(hydraulic_diagnosis):
     d = hydraulic_diagnosis
     text = d.summary()
@@ -489,6 +490,7 @@ def test_summary_explains_its_terms(hydraulic_diagnosis):
             in " ".join(quiet.summary().split()))
 
 
+@pytest.mark.slow
 def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_diagnosis):
     d = hydraulic_diagnosis
     assert d.missing_physics == ["hydraulic_force"], d.summary()
@@ -518,6 +520,7 @@ def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_diagnosis):
     assert worst["flow_gpm"] >= 450.0
 
 
+@pytest.mark.slow
 def test_a_diagnosis_shows_its_verdict_and_ranking_in_a_notebook(hydraulic_diagnosis):
     import html
 
@@ -527,6 +530,7 @@ def test_a_diagnosis_shows_its_verdict_and_ranking_in_a_notebook(hydraulic_diagn
         assert f">{fit.key}<" in page
 
 
+@pytest.mark.slow
 def test_fitted_physics_predicts_another_campaign_without_refitting(hydraulic_diagnosis):
     other = synthetic_campaign("7in-cde", (450.0, 550.0, 620.0), change=_truth(HYDRAULIC),
                                seed=13, **SMALL)
@@ -562,6 +566,7 @@ def test_null_campaign_with_wob_10_percent_off_gives_none():
     assert set(d.as_json()["nuisance"]) == {"wob_scale", "theta0"}
 
 
+@pytest.mark.slow
 def test_two_effects_at_once_are_both_named():
     camp = synthetic_campaign("7in-cde", FLOWS, change=_truth(HYDRAULIC, FRICTION), seed=15,
                               **SMALL)
@@ -574,6 +579,7 @@ def test_two_effects_at_once_are_both_named():
     assert len(js["steps"]) >= 2
 
 
+@pytest.mark.slow
 def test_a_pair_step_names_two_effects_no_single_one_explains():
     """The pair step's path end to end: with a reduction bar that neither effect meets alone
     (here 85 % in RMS, where the hydraulic force alone leaves the friction), the first step
@@ -597,6 +603,7 @@ def test_a_pair_step_names_two_effects_no_single_one_explains():
     assert "pair step" in d.summary()
 
 
+@pytest.mark.slow
 def test_an_excitation_amplitude_drift_with_flow_is_named():
     """Physics outside the dissertation's list: the excitation force grows faster with flow
     than the model's (Fo x (Q/400)^0.8). A hydraulic force, which also grows with flow, is
@@ -622,6 +629,7 @@ def test_a_mismatch_no_candidate_explains_is_unexplained_not_none(hydraulic_camp
     assert max(u["flow_gpm"] for u in d.unexplained) >= 500
 
 
+@pytest.mark.slow
 def test_cli_json_has_the_promised_keys(tmp_path, capsys, hydraulic_campaign):
     folder = save_campaign(hydraulic_campaign, tmp_path / "camp")
     rc = main(["diagnose", str(folder), "--json", "--candidates", "hydraulic_force",

@@ -248,8 +248,8 @@ def test_a_device_linked_campaign_file_is_refused_even_when_outside_is_allowed(t
         load_campaign(folder, allow_outside=True)
 
 
-def test_limits_are_stated_in_the_docs():
-    docs = Path(__file__).resolve().parents[2] / "docs" / "RECORDINGS.md"
+def test_limits_are_stated_in_the_docs(repository):
+    docs = repository / "docs" / "RECORDINGS.md"
     text = docs.read_text()
     for value in (MAX_TOML_BYTES, MAX_NAME_CHARS, MAX_ID_CHARS, MAX_CSV_FIELD_BYTES):
         assert f"{value:,}" in text or str(value) in text, value
