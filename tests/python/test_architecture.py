@@ -246,3 +246,24 @@ def test_one_residual_definition() -> None:
         text = path.read_text()
         assert "def event_residuals" not in text and "def standardised_residual" not in text, (
             f"{module} defines a residual of its own")
+
+
+MAX_PARAMETERS = 8
+"""Parameters of a public function at most, unless its docstring says why it needs more."""
+
+
+def test_long_signatures_say_why() -> None:
+    """A public function with more than ``MAX_PARAMETERS`` parameters says in its docstring
+    why ("Why so many parameters: ..."), so that a long signature is a decision, not drift."""
+    silent = []
+    for module, path in _modules():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.FunctionDef) or node.name.startswith("_"):
+                continue
+            a = node.args
+            names = [x.arg for x in (*a.posonlyargs, *a.args, *a.kwonlyargs)]
+            n = len(names) - (names[:1] in (["self"], ["cls"]))
+            doc = (ast.get_docstring(node) or "").lower()
+            if n > MAX_PARAMETERS and "why so many parameters" not in doc:
+                silent.append(f"{module}:{node.name} ({n})")
+    assert not silent, f"over {MAX_PARAMETERS} parameters without a reason: {silent}"

@@ -100,6 +100,9 @@ def write_campaigns(folder: str | os.PathLike[str],
     """Write the campaigns of ``classes`` (None: all) under neutral shuffled names; their
     truths and classes to ``truth.json``.
 
+    Why so many parameters: writing the campaigns takes the scenario set (classes, seed,
+    duration) and the settings of the synthetic recordings; keyword-only with defaults.
+
     Names and noise seeds are drawn over all ``scenarios``, so writing some classes now and
     others later into the same folder gives the same campaigns as writing all at once;
     campaigns already written are kept. ``duration_s`` (None: each scenario's) overrides the
@@ -226,6 +229,9 @@ def blind_benchmark(
 ) -> dict[str, Any]:
     """Write the concealed campaigns of ``classes`` (None: all), diagnose each from disk,
     score, and write ``scores.json`` and ``scores.md`` into ``folder``.
+
+    Why so many parameters: the benchmark is the scenario set (classes, seed, duration), the
+    diagnosis' run settings and its bookkeeping (resume, progress); keyword-only with defaults.
 
     Finished diagnoses are kept in ``results/`` and reused, so an interrupted benchmark
     resumes and classes run later are added to the same folder; the scores cover every

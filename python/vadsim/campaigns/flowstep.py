@@ -165,6 +165,10 @@ def flow_step_test(
 ) -> FlowStepTest:
     """Simulate a flow-step test as one continuous record and a surface log.
 
+    Why so many parameters: the test is a flow program (flows, step and settle times), a model
+    run and a vendor's files (units, clock offset, log rate); each is one of those, keyword-only
+    with defaults.
+
     Parameters
     ----------
     preset

@@ -159,6 +159,10 @@ def import_campaign(
 ) -> ImportResult:
     """Read a downhole record and a surface log and write the steady stretches as a campaign.
 
+    Why so many parameters: each is one fact about a vendor's files that cannot be read from
+    them (units, columns, clock offset, tolerances of a steady stretch), keyword-only; a
+    wrong one is refused by name.
+
     Parameters
     ----------
     record

@@ -258,6 +258,9 @@ def read_record(paths: Sequence[str | os.PathLike[str]], columns: Mapping[str, s
                 lowpass_hz: float | None = None, key: str | None = None) -> Record:
     """Read a downhole record (one or more files, in any order) onto one sampling grid.
 
+    Why so many parameters: a vendor's record needs what its file does not say (columns, units,
+    rate, time format); each is keyword-only, read from the file where it can be.
+
     Parameters are those of :func:`~vadsim.campaigns.importing.import_campaign`. The rate is
     measured from the time column (gaps split the record into pieces) and must agree with
     ``rate_hz`` when given.

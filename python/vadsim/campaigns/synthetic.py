@@ -55,6 +55,10 @@ def synthetic_campaign(
 ) -> Campaign:
     """Simulate one event per flow and record it as a campaign.
 
+    Why so many parameters: a synthetic campaign is a model run (preset, overrides, change, WOB)
+    through a sensor chain (rate, range, low-pass, noise, phase) at given flows; each is one of
+    those, keyword-only with defaults.
+
     Parameters
     ----------
     preset
@@ -125,6 +129,9 @@ def record_run(r: SimulationResult, sensors: Mapping[str, Sensor], *, event_id: 
                fine_rate_hz: float | None = None) -> Event:
     """One event recorded from a run on a fine grid: each sensor's chain at sampling
     ``phase`` (fraction of a sample) with Gaussian noise, cut to ``duration_s``.
+
+    Why so many parameters: a recording is a run through a sensor chain, each of whose settings
+    (rate, range, low-pass, noise, phase, seed) a campaign states.
 
     What a campaign's recording of that run would be; also how a calibration draws the
     recordings its parametric bootstrap needs. ``fine_rate_hz`` is the run's output rate

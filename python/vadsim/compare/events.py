@@ -350,6 +350,10 @@ def measure_event(
 ) -> EventSimulation:
     """Features of a run through each sensor's chain and at full resolution.
 
+    Why so many parameters: a measurement is the event's recording conditions (sensors, rate,
+    range, low-pass, noise, phases) applied to one run; the comparison engine passes each from
+    the campaign.
+
     A recording's sampling phase is unknown, and a 1 ms impact spike sampled at 1024 Hz shows
     a peak that depends on it (33-40 g at 400 gal/min for the 7in tool). The features through
     the chain are therefore averaged over ``phases`` sampling phases (0, 1/phases, ...) of
@@ -433,7 +437,11 @@ def simulate_event(campaign: Campaign, event: Event, settings: RunSettings, *,
                    seed: int | None = None,
                    keep_signals: bool = False, measurement: Measurement | None = None,
                    folded: bool | None = None) -> EventSimulation:
-    """:func:`run_event` then :func:`measure_event`."""
+    """:func:`run_event` then :func:`measure_event`.
+
+    Why so many parameters: one event's run is the run settings plus the event's operating point
+    and what the measurement needs stored; the comparison engine passes each.
+    """
     r = run_event(campaign, event, settings)
     return measure_event(campaign, event, r, phases=phases, noise_g=noise_g, seed=seed,
                          keep_signals=keep_signals, measurement=measurement, folded=folded)

@@ -212,6 +212,11 @@ def simulate(
 ) -> SimulationResult:
     """Run the model at one flow rate: static on-bottom state, flow on at t = 0.
 
+    Why so many parameters: each is one setting of a single run (the model, the operating point,
+    the solver, what is stored, the steady-state engine), all keyword-only with the
+    dissertation's defaults; grouping them would hide from the one-call user which one a result
+    depends on.
+
     Parameters
     ----------
     model

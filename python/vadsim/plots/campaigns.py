@@ -69,6 +69,9 @@ def mismatch_heatmap(
 ) -> Figure:
     """Heat map of standardised residuals, events as rows and features as columns.
 
+    Why so many parameters: a heat map of residuals takes the table and the choices of one
+    figure (order, limits, labels, file); each with a default.
+
     A diverging colour map centred at 0 (colour limits -vmax..vmax), each cell annotated with
     its value; missing values are grey and annotated "n/a". A table too wide for its numbers
     (cells under 0.45 in at the 16 in maximum width, ~30 columns) is drawn without them, its

@@ -272,6 +272,10 @@ def recorded_fold_features(
     """Folded features of a recorded event, or its distribution features where it does not
     repeat (module docstring).
 
+    Why so many parameters: the features of a recording depend on its conditions (rate, range,
+    low-pass), on the fold (periods, bins) and on which evidence is wanted; the comparison
+    engine passes each from the campaign.
+
     Parameters
     ----------
     signals : mapping of str to array_like

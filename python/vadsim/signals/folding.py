@@ -407,6 +407,9 @@ def fold(
 ) -> Fold:
     """Fold a uniformly sampled record by excitation phase (module docstring).
 
+    Why so many parameters: a fold is one record plus how it is folded (frequency, search span,
+    period, bins, blocks); each has a default that suits a 1024 Hz record.
+
     Parameters
     ----------
     a : array_like, shape (n,)

@@ -157,6 +157,10 @@ def model_fold_features(
 ) -> dict[str, Feature]:
     """Every kind of folded and distribution feature of a simulated event (module docstring).
 
+    Why so many parameters: the model's folds are measured under every condition of the
+    recording they are compared with (rate, low-pass, range, noise, phases, periods); the
+    comparison engine passes each from the campaign.
+
     The fold is :func:`vadsim.signals.folding.fold_fine`'s (same bins, exact frequency, no
     refinement), computed for speed as one fold at :data:`_SUPER` times finer bins per
     longest period (:func:`vadsim.signals.folding.fold_sums`; the folds of the periods that

@@ -134,6 +134,9 @@ def scan_constants(
 ) -> ConstantScan:
     """Sweep flow over a grid of (theta0, gap ratio) and score every published target.
 
+    Why so many parameters: the scan is the constants' ranges, the published numbers it is held
+    against and the run settings of each point; keyword-only with defaults.
+
     Parameters
     ----------
     preset

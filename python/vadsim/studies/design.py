@@ -282,6 +282,9 @@ def optimise(
 ) -> OptimisationResult:
     """Maximise J* and the operating range together over kS, gap ratio and Fo.
 
+    Why so many parameters: the optimisation is a design space (parameters, bounds), an
+    objective over flows and the run settings of each evaluation; each with a default.
+
     The score of a design is ``j_max / j_max0 + weight_range * width / width0`` (both relative
     to the preset), evaluated on a flow sweep (coarser and shorter than the dissertation's, so
     that hundreds of designs fit in minutes). The search is SciPy's differential evolution

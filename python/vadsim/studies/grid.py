@@ -422,7 +422,11 @@ def make_grid(settings: RunSettings, flows: Sequence[float] | np.ndarray,
                gap_via: str, detail: str, workers: int | None, portable: bool,
                refine: Refinement | bool | None = None,
                settle_cycles: float | None = None) -> Grid:
-    """Step 1: check every input and describe the computation (ValueError naming a bad one)."""
+    """Step 1: check every input and describe the computation (ValueError naming a bad one).
+
+    Why so many parameters: a grid is the map's axes plus the run settings every point shares;
+    :func:`vadsim.studies.sweep.sweep` passes its own.
+    """
     _check_options(mode, gap_via, detail, workers)
     settle = _settle(settings, mode, settle_cycles)
     if refine is True:

@@ -371,6 +371,10 @@ def sweep(
 ) -> xr.Dataset:
     """Run the model over flow rates and (optionally) one or more parameter axes.
 
+    Why so many parameters: a map is the run settings of :func:`vadsim.simulate` plus where it
+    runs (workers, scheduler, chunks) and how it resumes (store); all keyword-only with
+    defaults.
+
     Parameters
     ----------
     preset
