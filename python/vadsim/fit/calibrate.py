@@ -75,6 +75,14 @@ def calibrate(
 ) -> CalibrationResult:
     """Fit ``names`` to a campaign by robust least squares on standardised residuals.
 
+    Why so many parameters: they group into what is fitted (``campaign`` to ``overrides``),
+    the budget of each search stage (``global_stage`` to ``seed``), how the intervals are
+    drawn (``profile_points`` to ``noise_g``), the runs (``cycles`` to ``preset``) and what
+    the caller sees (``callback``, ``progress``). Each stage has its own budget because the
+    cost is rough (regime changes, ``l0``'s phase aliases) and a quick check and a full
+    calibration need very different ones (the recovery test runs every stage small); most
+    map one to one to an option of ``vadsim calibrate``.
+
     Parameters
     ----------
     campaign
@@ -88,7 +96,8 @@ def calibrate(
         Starting values (default: the preset's, with ``overrides``); the fit "before" is here.
     targets
         ``"recorded"`` (the campaign's features), ``"thesis-sim"`` (see
-        :func:`thesis_targets`) or a mapping ``{event: {key: Feature}}``.
+        :func:`~vadsim.fit.calibration_targets.thesis_targets`) or a mapping
+        ``{event: {key: Feature}}``.
     keys
         Feature keys to fit (default: every key both sides have).
     resolution

@@ -304,7 +304,7 @@ class CalibrationSearch:
     def thresholds(self, est: dict[str, float], pts: Mapping[str, np.ndarray], floor: float,
                    method: str, n_boot: int, noise_g: float) -> dict[str, float]:
         """Per parameter, how far the cost may rise inside its interval (see
-        :func:`calibrate`'s ``interval_method``)."""
+        :func:`~vadsim.fit.calibrate.calibrate`'s ``interval_method``)."""
         if method != "bootstrap":
             return dict.fromkeys(self.names, floor)
         points: dict[Any, int] = {}

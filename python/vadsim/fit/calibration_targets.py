@@ -202,12 +202,17 @@ def calibration_cost(
     workers: int | None = None,
     preset: Preset | None = None,
 ) -> tuple[float, pd.DataFrame]:
-    """The cost :func:`calibrate` minimises, at given parameter values, without fitting.
+    """The cost :func:`~vadsim.fit.calibrate.calibrate` minimises, at given parameter values,
+    without fitting.
+
+    Why so many parameters: they are :func:`~vadsim.fit.calibrate.calibrate`'s own minus the
+    search's, so that the cost is computed on exactly the targets, model and runs a
+    calibration would use.
 
     For checking identifiability: compare the cost at the truth of a synthetic campaign with
     the cost at a suspected alias (e.g. ``l0`` shifted by one excitation-phase period). The
-    arguments mean what they mean for :func:`calibrate`; ``values`` override the preset (on
-    top of ``overrides``).
+    arguments mean what they mean for :func:`~vadsim.fit.calibrate.calibrate`; ``values``
+    override the preset (on top of ``overrides``).
 
     Returns
     -------

@@ -321,7 +321,12 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     """Fit ``hyp`` through ``stages`` from ``start`` and from each of ``alternatives``
     (keeping the best end), then compute its interval and held-out score over every point
     evaluated on all events (at full fidelity: ``coarse``, a cheaper engine and its events,
-    only evaluates the grids of stages marked ``coarse``)."""
+    only evaluates the grids of stages marked ``coarse``).
+
+    Why so many parameters: every hypothesis of a diagnosis is fitted by this one function,
+    so all that differs between them comes in: the engine and its events, the hypothesis,
+    its starts (``start``, ``alternatives``) and stages, the folds that score it, a coarse
+    engine for the grids, and where to report."""
     n0, c0 = ev.n_evals, (coarse[0].n_evals if coarse is not None else 0)
     if any(e not in ev.keys for e in eids):
         ev.base(eids)  # the base model's run defines the compared keys

@@ -54,6 +54,11 @@ def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
     """Add candidates one at a time while the next one passes the thresholds. Candidates
     extend the calibrated ``base``; the first has to beat ``none`` (:func:`none_model`).
 
+    Why so many parameters: this is the diagnosis' selection stage, and it takes what the
+    earlier stages produced: the context and both engines (full and coarse), the calibrated
+    base model and "none", the candidates, the thresholds (``policy``) and the progress
+    callbacks (``say``, ``tick``).
+
     Where no single candidate passes and "none" leaves the campaign unexplained, two effects
     may need each other (each alone absorbed by the other's parameters or the nuisance
     constants): a pair step (:func:`pair_step`) then probes pairs of the first step's most
