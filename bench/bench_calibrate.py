@@ -30,7 +30,8 @@ import math
 import time
 
 from vadsim.campaigns.synthetic import synthetic_campaign
-from vadsim.fit.calibrate import calibrate, calibration_cost
+from vadsim.fit.calibrate import calibrate
+from vadsim.fit.calibration_targets import calibration_cost
 from vadsim.model.presets import get_preset
 
 TRUTH = {"l0": 0.7, "wob": 1000.0}

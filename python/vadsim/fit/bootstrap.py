@@ -77,6 +77,10 @@ def cost_rises(evaluator: CampaignEvaluator, change: ModelChange,
     """Per group of probes, the cost rise at the estimate above the group's best probe, for
     each of ``n_boot`` campaigns the fitted model writes.
 
+    Why so many parameters: the bootstrap reuses a calibration's work instead of redoing it,
+    so it takes that work as it is (the engine, the estimate, the probes already simulated,
+    their grouping and the cost), plus its own size, noise, seed and runs per event.
+
     Parameters
     ----------
     evaluator

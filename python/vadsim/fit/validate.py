@@ -131,6 +131,11 @@ def validate(
 ) -> ValidationResult:
     """Simulate every event of a campaign (in parallel threads) and compare features.
 
+    Why so many parameters: the base model is given piece by piece as the command line does
+    (``preset``, ``overrides``, ``extras``, ``law``, ``cycles``, ``analyse_cycles``) or whole
+    as ``settings``; the rest say what happens to the sensors' signals (``measurement``) and
+    how the runs are made (``workers``, ``cache``, ``progress``).
+
     The base model is ``settings``, or the campaign's preset (or ``preset``) with
     ``overrides``, ``extras``, ``law``, ``cycles`` and ``analyse_cycles``. ``progress``
     shows a progress bar over the events (stderr). ``cache``: a

@@ -1,13 +1,14 @@
 """The held-out cost of a fold: the rise of its training cost that buys the held-out events'
-fit (`vadsim.fit.hypothesis.predictive_cost`), and its use in the folds' scores."""
+fit (`vadsim.fit.scoring.predictive_cost`), and its use in the folds' scores."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from vadsim.compare import EventEval
-from vadsim.fit.hypothesis import Hypothesis, predictive_cost, score_folds
+from vadsim.fit.hypothesis import Hypothesis
 from vadsim.fit.nuisance import DEFAULT_NUISANCE
+from vadsim.fit.scoring import predictive_cost, score_folds
 
 
 @pytest.mark.parametrize("x_e", [0.3, 1.0, 4.0])
@@ -136,7 +137,8 @@ def test_a_fit_on_events_that_leave_no_flow_block_scores_its_flow_folds_alone():
     so by name."""
     import math
 
-    from vadsim.fit.hypothesis import Stage, fit_hypothesis
+    from vadsim.fit.hypothesis import fit_hypothesis
+    from vadsim.fit.stages import Stage
 
     eids = ["e08", "e09", "e10"]
     lofo = [(f"lofo {e}", [x for x in eids if x != e], [e]) for e in eids]
@@ -187,7 +189,7 @@ def _t_interval(values) -> tuple[float, float]:
 def test_the_jackknife_interval_of_a_mean_is_the_t_interval():
     """Leaving out each of m values and re-estimating their mean gives the jackknife standard
     error s / sqrt(m) exactly; the interval is then mean +- t(0.975, m-1) s / sqrt(m)."""
-    from vadsim.fit.hypothesis import jackknife_interval
+    from vadsim.fit.intervals import jackknife_interval
 
     hyp = Hypothesis(("anvil_friction",))
     vals = list(_TARGETS.values())
@@ -204,7 +206,7 @@ def test_a_periodic_constant_jackknifes_across_the_period_edge():
     the spread is 0.02 rad, not half the period, and the interval is given unwrapped."""
     import math
 
-    from vadsim.fit.hypothesis import jackknife_interval
+    from vadsim.fit.intervals import jackknife_interval
     from vadsim.fit.nuisance import THETA0
 
     hyp = Hypothesis((), (THETA0,))
@@ -223,7 +225,9 @@ def test_a_fit_interval_does_not_shrink_when_each_event_repeats_its_residual(cop
     chi-square threshold shrinks the interval 10-fold, but the leave-one-flow-out jackknife
     does not. The fit's interval is the t-interval of the events' targets (the analytic
     answer for this least-squares mean) in both cases: the jackknife gives it."""
-    from vadsim.fit.hypothesis import Stage, fit_hypothesis, profile_interval
+    from vadsim.fit.hypothesis import fit_hypothesis
+    from vadsim.fit.intervals import profile_interval
+    from vadsim.fit.stages import Stage
 
     eids = list(_TARGETS)
     lofo = [(f"flow {i}", [x for x in eids if x != e], [e]) for i, e in enumerate(eids)]
@@ -272,14 +276,10 @@ def test_two_coordinates_jackknife_between_the_points_the_fit_evaluated():
     The jackknife reads it from a quadratic through them (no new run): every fold's
     estimate is the mean of its training targets (the analytic optimum), the jackknife
     interval as wide as the t-interval, and the fit's interval contains it."""
-    from vadsim.fit.hypothesis import (
-        HypothesisCosts,
-        Stage,
-        fit_hypothesis,
-        fold_estimates,
-        jackknife_interval,
-    )
+    from vadsim.fit.hypothesis import HypothesisCosts, fit_hypothesis
+    from vadsim.fit.intervals import fold_estimates, jackknife_interval
     from vadsim.fit.nuisance import WOB_SCALE
+    from vadsim.fit.stages import Stage
 
     eids = list(_TARGETS)
     b = dict(zip(eids, [0.97, 1.01, 0.99, 1.04, 0.95, 1.02, 1.0, 0.98], strict=True))

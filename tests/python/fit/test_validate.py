@@ -8,7 +8,8 @@ from vadsim import RunSettings
 from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import event_residuals, simulate_event
-from vadsim.fit.calibrate import calibrate, thesis_targets
+from vadsim.fit.calibrate import calibrate
+from vadsim.fit.calibration_targets import thesis_targets
 from vadsim.fit.validate import validate
 from vadsim.report.validation import findings
 from vadsim.report.validation import write_validation_report as write_report

@@ -1,7 +1,7 @@
 """The fits a diagnosis makes of one hypothesis: where each starts, and through which stages.
 
 A :class:`Job` is one hypothesis (candidates plus nuisance constants), its start and its
-stages (:class:`~vadsim.fit.hypothesis.Stage`: grids and local refinements, on the full or the
+stages (:class:`~vadsim.fit.stages.Stage`: grids and local refinements, on the full or the
 coarse engine); :func:`vadsim.fit.diagnosis.parallel.fit_all` runs a list of them. The
 stage plans differ by what is fitted: the base model's calibration (:func:`calibrate_base`),
 a candidate on top of the chosen ones (:func:`job`, :func:`candidate_stages`), a screening
@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis.evidence import Context
-from vadsim.fit.hypothesis import Hypothesis, HypothesisFit, Point, Stage, fit_hypothesis
+from vadsim.fit.hypothesis import Hypothesis, HypothesisFit, Point, fit_hypothesis
+from vadsim.fit.stages import Stage
 
 __all__ = ["JOINT_IF_TRAINING_BELOW", "MAX_GRID_MODEL_SIDE", "MAX_JOINT_GRID_PARAMS",
            "PAIR_REFINE_PER_PARAM", "PROBE_PER_AXIS", "PROBE_PER_AXIS_MEASUREMENT", "Job",

@@ -29,7 +29,8 @@ from vadsim.fit.diagnosis.hypotheses import (
 )
 from vadsim.fit.diagnosis.parallel import Tick, fit_all
 from vadsim.fit.diagnosis.policy import Policy, any_vanishes, at_null
-from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, HypothesisFit, Point, Stage
+from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, HypothesisFit, Point
+from vadsim.fit.stages import Stage
 
 __all__ = ["PAIR_FULL", "PAIR_MIN_CUT", "PAIR_SCREEN_EVENTS", "PAIR_SCREEN_FULL",
            "PAIR_SCREEN_MIN_GAIN", "PAIR_SCREEN_REPORT", "PAIR_SCREEN_SHAPE_PER_AXIS",
@@ -94,7 +95,13 @@ def screened(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     the full fit of the ``top`` whose probe cut the training cost most (by at least
     :data:`PROBE_MIN_GAIN`) and of the :data:`SOLO_FULL` best first-step candidates
     (``solo``, best first); the others keep their probe's fit. ``probes_out`` receives every
-    probe (with its cost at each grid point)."""
+    probe (with its cost at each grid point).
+
+    Why so many parameters: this is one step of
+    :func:`~vadsim.fit.diagnosis.selection.forward_selection` and takes that loop's state as
+    it is: the context and both engines, the model extended, the candidates left and how many
+    to fit fully, the first step's fits (``solo``), the progress callbacks (``say``,
+    ``tick``) and where to collect the probes."""
     probes = [Job(current.hypothesis.extend(k), job(current, k).start,
                    (probe_stage(current.hypothesis.extend(k)),), probe=True) for k in pool]
     fits = fit_all(ctx, probes, ev, coarse_ev, say)
@@ -153,7 +160,13 @@ def pair_step(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     whose probe cuts the best single probe's cost by :data:`PAIR_MIN_CUT` in RMS; best
     first, or none. Whether the best is chosen is :func:`passes`' question, against
     "none", with the diagnosis' own thresholds. ``tried`` receives each joint probe's
-    outcome."""
+    outcome.
+
+    Why so many parameters: this is one step of
+    :func:`~vadsim.fit.diagnosis.selection.forward_selection` and takes that loop's state as
+    it is: the context and both engines, the model the pairs extend, the first step's probes,
+    the thresholds, the progress callbacks (``say``, ``tick``) and where to record each
+    probe's outcome."""
     prospects = pair_prospects(probes, PAIR_TOP)
     if not prospects:
         return []
@@ -213,7 +226,13 @@ def screen_all_pairs(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEva
     does either (measured: that pair 185th of 222 by the best sum of probe residuals). Only a
     joint probe sees them. The probes run at the nuisance values (calibrated or nominal) where
     the base model fits these events better: the calibration absorbs what it can of the
-    effects."""
+    effects.
+
+    Why so many parameters: this is one step of
+    :func:`~vadsim.fit.diagnosis.selection.forward_selection` and takes that loop's state as
+    it is: the context and both engines, the model the pairs extend, the candidates paired,
+    the pairs fitted already (``skip``), the progress callbacks (``say``, ``tick``) and where
+    to record each probe's outcome."""
     eids = [e for e in ctx.worst_eids[:PAIR_SCREEN_EVENTS]]
     pairs = [(a, b) for a, b in screen_pairs(keys) if frozenset((a, b)) not in skip]
     if len(eids) < 2 or not pairs:

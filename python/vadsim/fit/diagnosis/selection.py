@@ -35,7 +35,8 @@ from vadsim.fit.diagnosis.policy import (
     vanishes,
     vanishes_in_folds,
 )
-from vadsim.fit.hypothesis import HypothesisFit, aicc
+from vadsim.fit.hypothesis import HypothesisFit
+from vadsim.fit.scoring import aicc
 
 __all__ = ["Selection", "forward_selection", "refits_without", "rescored", "review"]
 
@@ -52,6 +53,11 @@ def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
                        tick: Tick) -> Selection:
     """Add candidates one at a time while the next one passes the thresholds. Candidates
     extend the calibrated ``base``; the first has to beat ``none`` (:func:`none_model`).
+
+    Why so many parameters: this is the diagnosis' selection stage, and it takes what the
+    earlier stages produced: the context and both engines (full and coarse), the calibrated
+    base model and "none", the candidates, the thresholds (``policy``) and the progress
+    callbacks (``say``, ``tick``).
 
     Where no single candidate passes and "none" leaves the campaign unexplained, two effects
     may need each other (each alone absorbed by the other's parameters or the nuisance

@@ -136,8 +136,9 @@ def test_probe_subset_takes_the_worst_fitted_events_and_spreads_the_rest():
 def test_a_coarse_grid_runs_only_its_best_points_at_full_fidelity():
     from vadsim.campaigns import campaign_preset
     from vadsim.compare import CampaignEvaluator
-    from vadsim.fit.hypothesis import COARSE_SEEDS, Hypothesis, Stage, fit_hypothesis
+    from vadsim.fit.hypothesis import Hypothesis, fit_hypothesis
     from vadsim.fit.nuisance import WOB_SCALE
+    from vadsim.fit.stages import COARSE_SEEDS, Stage
     from vadsim.model.settings import RunSettings
 
     flows = (200.0, 400.0, 600.0, 650.0)
@@ -175,7 +176,8 @@ def test_a_refinement_returns_the_best_point_it_evaluated():
     158.0 was reported, with the interval [1.0281, 1.0293] around a point at 123.4 that
     the same search had evaluated). Whatever the budget, the refinement returns the best
     point it saw."""
-    from vadsim.fit.hypothesis import Hypothesis, refine
+    from vadsim.fit.hypothesis import Hypothesis
+    from vadsim.fit.stages import refine
 
     hyp = Hypothesis(("sensor_chain[x5]",))
     target = np.array([0.37, 0.61])
@@ -217,7 +219,7 @@ def _diagnose(camp, **kw):
 
 
 def _scored(heldout_rms: float, k: int, n_heldout: int = 100) -> HypothesisFit:
-    from vadsim.fit.hypothesis import aicc
+    from vadsim.fit.scoring import aicc
 
     return HypothesisFit(keys=(), nuisance_specs=(), point=(), k=k, intervals=[], rss=1.0,
                          n=n_heldout, heldout_rms=heldout_rms, heldout_rms_lofo=heldout_rms,
@@ -447,8 +449,9 @@ def test_the_pair_screen_covers_every_model_side_pair_once():
 
 
 def test_a_grid_caps_the_axes_of_shape_parameters_alone():
-    from vadsim.fit.hypothesis import Hypothesis, grid_points
+    from vadsim.fit.hypothesis import Hypothesis
     from vadsim.fit.nuisance import NuisanceSpec
+    from vadsim.fit.stages import grid_points
 
     nuis = (NuisanceSpec("wob_scale", 0.85, 1.15, "-", "linear", 1.0),)
     hyp = Hypothesis(("hydraulic_force[anvil]", "contact_stiffness[impact]"), nuis)
