@@ -44,6 +44,7 @@ ALIASES: dict[str, str] = {
 MOVED_OUT: dict[str, tuple[str, ...]] = {
     "vadsim.simulate": ("vadsim.model.result",),
     "vadsim.features": ("vadsim.signals.window_features", "vadsim.signals.bands"),
+    "vadsim.calibrate": ("vadsim.fit.calibration_targets", "vadsim.fit.calibration_search"),
 }
 """Old module path -> the modules that 0.2 split out of its new module: a name read from the
 old path is looked up there too, so a 0.1 script keeps working (with the warning)."""

@@ -70,7 +70,7 @@ def diagnose(
     """Calibrate the base model's nuisance constants, locate the mismatch, select missing
     physics by forward selection on held-out events, and give a verdict.
 
-    Why this many parameters: each mirrors an option of ``vadsim diagnose`` one to one, so
+    Why so many parameters: each mirrors an option of ``vadsim diagnose`` one to one, so
     that a script and a command line say the same; they group into the campaign and its
     candidates, the run (``preset`` to ``phases``), the decision thresholds (``policy``, or
     any of them on their own) and where the work runs (``workers`` to ``scheduler``).
