@@ -25,8 +25,7 @@ from vadsim.model.settings import ExtraSpec, RunSettings
 from vadsim.model.simulate import SolverError
 from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
 from vadsim.studies.refine import Refinement
-from vadsim.studies.rows import FEATURES
-from vadsim.studies.store import STORE_FORMAT
+from vadsim.studies.rows import FEATURES, STORE_FORMAT
 
 __all__ = ["CONTINUATION_SETTLE_CYCLES", "DERIVED_PARAMETERS", "DETAILS", "GAP_REALISATIONS",
            "Chunk", "Grid", "PointSpec", "design_overrides", "flows_from_hz", "make_grid",

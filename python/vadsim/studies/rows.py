@@ -1,12 +1,17 @@
-"""What one row of a sweep holds: the features of a run, their meaning and units.
+"""What one row of a sweep holds: the features of a run, their meaning and units, and the
+version of the format they are stored in.
 
-Shared by the sweep (:mod:`vadsim.studies.sweep`), which computes the rows, and its store
+Shared by the grid (:mod:`vadsim.studies.grid`), which computes the rows, and the store
 (:mod:`vadsim.studies.store`), which checks them when it reads a chunk back.
 """
 
 from __future__ import annotations
 
-__all__ = ["FEATURES", "FEATURE_ATTRS", "INT_FEATURES", "TEXT_FEATURES"]
+__all__ = ["FEATURES", "FEATURE_ATTRS", "INT_FEATURES", "STORE_FORMAT", "TEXT_FEATURES"]
+
+STORE_FORMAT = 3
+"""Version of the store's files (1: vadsim 0.1, chunks without grid hash or checksum; 2:
+rows without ``steady_period``, runs integrated to their end)."""
 
 FEATURES: dict[str, str] = {
     "z_spring": "impacts per cycle at the recoil spring (#1)",

@@ -25,17 +25,14 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from vadsim.studies.rows import FEATURES, TEXT_FEATURES
+from vadsim.studies.rows import FEATURES, STORE_FORMAT, TEXT_FEATURES
 
 if TYPE_CHECKING:
-    from vadsim.studies.sweep import Chunk, Grid
+    from vadsim.studies.grid import Chunk, Grid
 
-__all__ = ["CLAIM_STALE_S", "CLAIM_WRITE_GRACE_S", "STORE_FORMAT", "BadChunk", "Store",
+__all__ = ["CLAIM_STALE_S", "CLAIM_WRITE_GRACE_S", "BadChunk", "Store",
            "StoreWarning", "atomic_write_text", "process_start", "read_json", "verify_chunk"]
 
-STORE_FORMAT = 3
-"""Version of the store's files (1: vadsim 0.1, chunks without grid hash or checksum; 2:
-rows without ``steady_period``, runs integrated to their end)."""
 
 
 CLAIM_STALE_S = 600.0

@@ -272,14 +272,15 @@ def test_fuzz_preset_files(key: str, value: Any, param: str, pvalue: Any,
 def store_chunk(tmp_path_factory: pytest.TempPathFactory) -> tuple[Any, Any, str]:
     from vadsim.studies import store as vstore
     from vadsim.studies import sweep as vsweep
+    from vadsim.studies.grid import make_grid
 
     folder = tmp_path_factory.mktemp("fuzz-store") / "store"
     vsweep.sweep("7in-cde", (200.0, 300.0), {"kS": (2e5, 4e5)}, cycles=20, analyse_cycles=10,
                  progress=False, store=folder)
     settings_ = vsweep.RunSettings("7in-cde", cycles=20, analyse_cycles=10)
-    grid = vsweep._make_grid(settings_, (200.0, 300.0), {"kS": (2e5, 4e5)},
-                             mode="independent", gap_via="spring", detail="full",
-                             workers=None, portable=True)
+    grid = make_grid(settings_, (200.0, 300.0), {"kS": (2e5, 4e5)},
+                     mode="independent", gap_via="spring", detail="full",
+                     workers=None, portable=True)
     store = vstore.Store.open(folder, grid)
     chunk = grid.chunks()[0]
     return store, chunk, (folder / f"{chunk.key}.json").read_text()

@@ -20,6 +20,7 @@ import pytest
 import xarray as xr
 from vadsim.studies import store as vstore
 from vadsim.studies import sweep as vsweep
+from vadsim.studies.grid import make_grid
 from vadsim.studies.store import StoreWarning
 from vadsim.studies.sweep import load_dataset, sweep
 
@@ -98,8 +99,8 @@ def test_a_live_claim_records_its_start_and_is_respected(tmp_path, filled):
     store_dir.mkdir()
     (store_dir / "grid.json").write_text((source / "grid.json").read_text())
     settings = vsweep.RunSettings("7in-cde", cycles=20, analyse_cycles=10)
-    grid = vsweep._make_grid(settings, FLOWS, {"gap_ratio": GAPS}, mode="independent",
-                             gap_via="spring", detail="full", workers=None, portable=True)
+    grid = make_grid(settings, FLOWS, {"gap_ratio": GAPS}, mode="independent",
+                     gap_via="spring", detail="full", workers=None, portable=True)
     mine, other = vstore.Store.open(store_dir, grid), vstore.Store.open(store_dir, grid)
     chunk = grid.chunks()[0]
     assert mine.claim(chunk)
