@@ -11,7 +11,7 @@ Per parameter, the wider of two (:func:`widest`):
 Why both: the profile alone assumes independent residuals and is far too narrow for one
 record's correlated features; the jackknife shows how far the data can move the estimate.
 Both read only points already evaluated (no new run);
-:func:`~vadsim.fit.hypothesis.fit_hypothesis` calls them.
+:func:`~vadsim.fit.hypothesis_fit.fit_hypothesis` calls them.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ pooled over all held-out predictions, and the score an AICc on those residuals
 (:func:`aicc`).
 
 Why a module of its own: a diagnosis ranks its hypotheses by this score, so it is one
-definition, read by :func:`~vadsim.fit.hypothesis.fit_hypothesis` and the selection alike.
+definition, read by :func:`~vadsim.fit.hypothesis_fit.fit_hypothesis` and the selection alike.
 """
 
 from __future__ import annotations

@@ -135,7 +135,7 @@ def run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
                ) -> tuple[float, Point]:
     """The stages from one start: the best (rss, point) reached.
 
-    Why: :func:`~vadsim.fit.hypothesis.fit_hypothesis` runs every one of its starts through
+    Why: :func:`~vadsim.fit.hypothesis_fit.fit_hypothesis` runs every one of its starts through
     the same stages and keeps the best end.
 
     Parameters

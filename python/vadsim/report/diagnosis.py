@@ -19,7 +19,7 @@ import pandas as pd
 
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis import Diagnosis
-from vadsim.fit.hypothesis import HypothesisFit
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.plots.campaigns import heldout_features, mismatch_base
 from vadsim.report.render import check_format, fmt_value, render, write
 from vadsim.report.text import verdict_text

@@ -13,7 +13,7 @@ from vadsim._html import grid_table, key_value_table
 from vadsim._render import register
 from vadsim.fit.diagnosis import Diagnosis
 from vadsim.fit.diagnosis.search import PAIR_SCREEN_REPORT
-from vadsim.fit.hypothesis import HypothesisFit
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.report.render import fmt_value
 
 __all__ = ["SUMMARY_LEGEND", "diagnosis_html", "diagnosis_summary", "edges_text",
@@ -127,7 +127,7 @@ def diagnosis_html(diag: Diagnosis) -> str:
 
 def edges_text(fit: HypothesisFit) -> str:
     """The verdict's caveat for candidate parameters ``fit`` left at an end of their search
-    range (:attr:`~vadsim.fit.hypothesis.HypothesisFit.at_bounds`), or ``""``."""
+    range (:attr:`~vadsim.fit.hypothesis_fit.HypothesisFit.at_bounds`), or ``""``."""
     edges = [e for e in fit.at_bounds if e["of"] != "nuisance"]
     if not edges:
         return ""

@@ -100,7 +100,7 @@ def test_a_candidate_vanishes_in_the_folds_only_where_every_scoring_point_has_it
     from dataclasses import replace
 
     from vadsim.fit.diagnosis.policy import vanishes_in_folds as _vanishes_in_folds
-    from vadsim.fit.hypothesis import HypothesisFit
+    from vadsim.fit.hypothesis_fit import HypothesisFit
 
     fit = HypothesisFit(keys=("anvil_friction",), nuisance_specs=(), point=(0.0,), k=1,
                         intervals=[], rss=1.0, n=10, heldout_rms=0.5, heldout_rms_lofo=0.5,
@@ -137,7 +137,7 @@ def test_a_fit_on_events_that_leave_no_flow_block_scores_its_flow_folds_alone():
     so by name."""
     import math
 
-    from vadsim.fit.hypothesis import fit_hypothesis
+    from vadsim.fit.hypothesis_fit import fit_hypothesis
     from vadsim.fit.stages import Stage
 
     eids = ["e08", "e09", "e10"]
@@ -225,7 +225,7 @@ def test_a_fit_interval_does_not_shrink_when_each_event_repeats_its_residual(cop
     chi-square threshold shrinks the interval 10-fold, but the leave-one-flow-out jackknife
     does not. The fit's interval is the t-interval of the events' targets (the analytic
     answer for this least-squares mean) in both cases: the jackknife gives it."""
-    from vadsim.fit.hypothesis import fit_hypothesis
+    from vadsim.fit.hypothesis_fit import fit_hypothesis
     from vadsim.fit.intervals import profile_interval
     from vadsim.fit.stages import Stage
 
@@ -276,7 +276,8 @@ def test_two_coordinates_jackknife_between_the_points_the_fit_evaluated():
     The jackknife reads it from a quadratic through them (no new run): every fold's
     estimate is the mean of its training targets (the analytic optimum), the jackknife
     interval as wide as the t-interval, and the fit's interval contains it."""
-    from vadsim.fit.hypothesis import HypothesisCosts, fit_hypothesis
+    from vadsim.fit.hypothesis import HypothesisCosts
+    from vadsim.fit.hypothesis_fit import fit_hypothesis
     from vadsim.fit.intervals import fold_estimates, jackknife_interval
     from vadsim.fit.nuisance import WOB_SCALE
     from vadsim.fit.stages import Stage

@@ -16,7 +16,7 @@ physics outside the list:
    a grid over the candidate's parameters at the calibrated nuisance values, a local
    refinement, and -- where the candidate already cuts the training cost by 10 % -- a joint
    Nelder-Mead over the candidate's parameters and the nuisance constants together
-   (:func:`vadsim.fit.hypothesis.fit_hypothesis`). Candidates are fitted in parallel
+   (:func:`vadsim.fit.hypothesis_fit.fit_hypothesis`). Candidates are fitted in parallel
    processes.
 4. **Score on held-out events.** Leave-one-flow-out folds and a block of the highest flows;
    each fold refits on its training events among the evaluated points; the held-out error is

@@ -19,7 +19,8 @@ import pandas as pd
 
 from vadsim.campaigns import Campaign
 from vadsim.compare import CampaignEvaluator, EventEval, WarmStart
-from vadsim.fit.hypothesis import Fold, Hypothesis, HypothesisCosts, HypothesisFit, Point
+from vadsim.fit.hypothesis import Fold, Hypothesis, HypothesisCosts, Point
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.locate import Mismatch, locate
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature

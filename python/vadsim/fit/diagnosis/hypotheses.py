@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis.evidence import Context
-from vadsim.fit.hypothesis import Hypothesis, HypothesisFit, Point, fit_hypothesis
+from vadsim.fit.hypothesis import Hypothesis, Point
+from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis
 from vadsim.fit.stages import Stage
 
 __all__ = ["JOINT_IF_TRAINING_BELOW", "MAX_GRID_MODEL_SIDE", "MAX_JOINT_GRID_PARAMS",

@@ -16,7 +16,7 @@ from vadsim._interrupt import finished
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.diagnosis.evidence import Context
 from vadsim.fit.diagnosis.hypotheses import Job
-from vadsim.fit.hypothesis import HypothesisFit, fit_hypothesis
+from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis
 
 __all__ = ["Tick", "bar_tick", "fit_all", "fit_task", "on_bar", "run_job"]
 

@@ -34,7 +34,8 @@ from vadsim.fit.diagnosis.hypotheses import calibrate_base
 from vadsim.fit.diagnosis.parallel import bar_tick, on_bar
 from vadsim.fit.diagnosis.policy import Policy, none_model, unexplained, verdict
 from vadsim.fit.diagnosis.result import Diagnosis, jsonable
-from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, fit_hypothesis
+from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
+from vadsim.fit.hypothesis_fit import fit_hypothesis
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
 from vadsim.model.cache import ResultCache, default_cache
 from vadsim.model.presets import Preset

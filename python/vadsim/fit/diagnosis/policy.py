@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from vadsim.fit.candidates import CANDIDATES
-from vadsim.fit.hypothesis import HypothesisFit
+from vadsim.fit.hypothesis_fit import HypothesisFit
 
 __all__ = ["VERDICTS", "Policy", "any_vanishes", "at_null", "needed", "none_model", "passes",
            "unexplained", "vanishes", "vanishes_in_folds", "verdict"]

@@ -16,7 +16,8 @@ import numpy as np
 from vadsim._render import render
 from vadsim.campaigns import Campaign
 from vadsim.fit.diagnosis.policy import Policy, none_model
-from vadsim.fit.hypothesis import Fold, HypothesisFit
+from vadsim.fit.hypothesis import Fold
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.locate import Mismatch
 from vadsim.model.presets import Preset
 from vadsim.signals.features import Feature

@@ -29,7 +29,8 @@ from vadsim.fit.diagnosis.hypotheses import (
 )
 from vadsim.fit.diagnosis.parallel import Tick, fit_all
 from vadsim.fit.diagnosis.policy import Policy, any_vanishes, at_null
-from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, HypothesisFit, Point
+from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, Point
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.stages import Stage
 
 __all__ = ["PAIR_FULL", "PAIR_MIN_CUT", "PAIR_SCREEN_EVENTS", "PAIR_SCREEN_FULL",

@@ -35,7 +35,7 @@ from vadsim.fit.diagnosis.policy import (
     vanishes,
     vanishes_in_folds,
 )
-from vadsim.fit.hypothesis import HypothesisFit
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.scoring import aicc
 
 __all__ = ["Selection", "forward_selection", "refits_without", "rescored", "review"]

@@ -22,7 +22,7 @@ from vadsim.fit.candidates import (
     mount_resonance,
 )
 from vadsim.fit.diagnosis import diagnose, make_folds, none_model, predict
-from vadsim.fit.hypothesis import HypothesisFit
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.model.change import ModelChange
 
 FS = 20480.0
@@ -136,7 +136,8 @@ def test_probe_subset_takes_the_worst_fitted_events_and_spreads_the_rest():
 def test_a_coarse_grid_runs_only_its_best_points_at_full_fidelity():
     from vadsim.campaigns import campaign_preset
     from vadsim.compare import CampaignEvaluator
-    from vadsim.fit.hypothesis import Hypothesis, fit_hypothesis
+    from vadsim.fit.hypothesis import Hypothesis
+    from vadsim.fit.hypothesis_fit import fit_hypothesis
     from vadsim.fit.nuisance import WOB_SCALE
     from vadsim.fit.stages import COARSE_SEEDS, Stage
     from vadsim.model.settings import RunSettings

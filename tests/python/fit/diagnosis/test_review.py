@@ -12,7 +12,8 @@ from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis import diagnose
 from vadsim.fit.diagnosis import selection as dmod
 from vadsim.fit.diagnosis.hypotheses import siblings, without
-from vadsim.fit.hypothesis import Hypothesis, HypothesisFit
+from vadsim.fit.hypothesis import Hypothesis
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.model.change import ModelChange
 
 FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
