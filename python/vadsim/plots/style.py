@@ -395,9 +395,11 @@ def feature_label(key: str) -> str:
     return f"{key.replace('_', ' ')} (\u2013)"
 
 
-LABEL_CHARS = 60
+LABEL_CHARS = 120
 """Most characters of a name or id drawn into a figure title or axis label: a campaign's name
-may be long (its file allows 200 characters, an in-memory one any), a figure's title may not."""
+may be long (its file allows 200 characters, an in-memory one any), a figure's title may not.
+Titles wrap (:func:`fit_titles`), so a real campaign's long name (a test id, the rig and the
+well) stays whole over two lines; only a name past this is cut."""
 
 
 def short_label(text: object, limit: int = LABEL_CHARS) -> str:
