@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 from vadsim.studies.refine import Refinement
-from vadsim.sweep import flows_from_hz, load_dataset, save_dataset, sweep
+from vadsim.studies.sweep import flows_from_hz, load_dataset, save_dataset, sweep
 
 TARGET_S = 60.0
 """The issue's budget for the adaptive thesis map on 2 cores."""

@@ -21,12 +21,13 @@ import time
 
 ONE = """
 import json, sys, time
-from vadsim import candidates, diagnose, synthetic
+from vadsim.fit import candidates, diagnosis
+from vadsim.campaigns import synthetic
 t0 = time.perf_counter()
 truth = candidates.CANDIDATES["hydraulic_force[anvil]"].change({"f_ref": 64.0, "n": 2.0})
 camp = synthetic.synthetic_campaign("7in-cde", (200, 300, 400, 500, 600, 650), change=truth,
                                     duration_s=3, cycles=160, analyse_cycles=100, seed=11)
-d = diagnose.diagnose(camp, candidates=json.loads(sys.argv[1]), cycles=160,
+d = diagnosis.diagnose(camp, candidates=json.loads(sys.argv[1]), cycles=160,
                       analyse_cycles=100, phases=2, progress=False, cache=sys.argv[2])
 print(json.dumps({"seconds": time.perf_counter() - t0, "physics": d.missing_physics,
                   "heldout": d.final.heldout_rms}))

@@ -29,9 +29,10 @@ import argparse
 import math
 import time
 
-from vadsim.calibrate import calibrate, calibration_cost
-from vadsim.presets import get_preset
-from vadsim.synthetic import synthetic_campaign
+from vadsim.campaigns.synthetic import synthetic_campaign
+from vadsim.fit.calibrate import calibrate
+from vadsim.fit.calibration_targets import calibration_cost
+from vadsim.model.presets import get_preset
 
 TRUTH = {"l0": 0.7, "wob": 1000.0}
 START = {"l0": 1.0, "wob": 500.0}

@@ -3,9 +3,9 @@
 Why this benchmark: the issue asks that a map given a Dask scheduler address runs on that
 cluster unchanged, and for a measured speed-up from 1 to 2 workers. This script starts a
 ``LocalCluster`` of worker processes (one thread each, so a worker is one core), runs the same
-small map through :func:`vadsim.sweep.sweep` with ``scheduler=`` its address, then repeats with
-2 workers, and prints both wall times, the speed-up and whether both datasets are identical
-(they must be: where a point runs cannot change its numbers).
+small map through :func:`vadsim.studies.sweep.sweep` with ``scheduler=`` its address, then
+repeats with 2 workers, and prints both wall times, the speed-up and whether both datasets are
+identical (they must be: where a point runs cannot change its numbers).
 
 Workers import vadsim before the clock starts, so the times are the map's, not start-up's.
 
@@ -24,14 +24,14 @@ from collections.abc import Sequence
 
 import numpy as np
 import xarray as xr
-from vadsim.sweep import sweep
+from vadsim.studies.sweep import sweep
 
 
 def _warm_up() -> str:
     """Import the model on a worker (run through ``Client.run``) so it is not timed."""
-    import vadsim.sweep
+    import vadsim.studies.sweep
 
-    return vadsim.sweep.__name__
+    return vadsim.studies.sweep.__name__
 
 
 def _rss_mb() -> float:

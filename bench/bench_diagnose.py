@@ -1,7 +1,7 @@
 """Time a full diagnosis of a 10-event campaign on the local cores.
 
 Writes a 10-event 7in campaign (200-650 gal/min, 8 s per event, 0.3 g noise) with a
-concealed effect, loads it back from disk and runs ``vadsim.fit.diagnose.diagnose`` with every
+concealed effect, loads it back from disk and runs ``vadsim.fit.diagnosis.diagnose`` with every
 candidate (23 variants) and the default settings (nuisance constants WOB scale and theta0,
 forward selection). Effects: ``hydraulic`` (a force f_ref = 64 N/kg at 400 gal/min, n = 2, on
 the anvil), ``pair`` (that force and 100 N/kg of anvil friction), ``wob`` (no effect, the tool
@@ -26,7 +26,7 @@ from collections.abc import Iterator
 from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.fit.candidates import CANDIDATES
-from vadsim.fit.diagnose import diagnose
+from vadsim.fit.diagnosis import diagnose
 from vadsim.model.change import ModelChange
 
 FLOWS = (200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0, 650.0)

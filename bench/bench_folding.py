@@ -6,7 +6,7 @@ For each flow: a synthetic 8 s record of the 7in CDE tool (the model itself, x1 
 starting from a frequency 0.1 % off (:func:`vadsim.signals.folding.fold`, refined); the same
 run's noise-free fine grid (20480 Hz) is folded at its exact frequency through the same analog
 chain (:func:`vadsim.signals.folding.fold_fine`). Both folds are aligned as the features
-align them (:func:`vadsim.signals.fold_features.spike_origin`: x1's spike at the centre of a
+align them (:func:`vadsim.signals.fold_waveform.spike_origin`: x1's spike at the centre of a
 bin) and compared bin by bin. Then the features of the record
 (:func:`vadsim.compare.recorded_features`) are compared with those of the base model
 (:func:`vadsim.compare.measure_event`), and measure_event is timed with and without folding.
@@ -31,9 +31,9 @@ from vadsim.compare import (
     recorded_features,
     run_event,
 )
+from vadsim.model.result import G
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G
-from vadsim.signals.fold_features import spike_origin
+from vadsim.signals.fold_waveform import spike_origin
 from vadsim.signals.folding import fold, fold_fine
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING
 

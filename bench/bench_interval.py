@@ -14,7 +14,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from vadsim import calibrate, synthetic
+from vadsim.campaigns import synthetic
+from vadsim.fit import calibrate
 
 TRUE_FO = 380.0
 

@@ -3,7 +3,7 @@
 Why this benchmark: the issue asks for the dissertation's chapter 5 map at its resolution --
 gap ratio 85-150 % in 85 steps x excitation 21.3-69.3 Hz in 0.5 Hz steps, 97 x 85 = 8,245
 runs of 400 cycles -- in at most 5 minutes on a 2-core machine. This script runs exactly
-that map through :func:`vadsim.sweep.sweep` (threads, a fresh resumable store, progress bar)
+that map through :func:`vadsim.studies.sweep.sweep` (threads, a fresh resumable store, progress bar)
 and prints the wall time, the throughput and the median time of one run, so the number quoted
 in the note can be re-measured. Smaller grids (``--gap-steps 3 --hz-step 4``) smoke-test it.
 

@@ -11,8 +11,11 @@ regime boundary one event's response can flip between phases a fraction of a mil
 apart. Each line gives the worst event's share.
 
     python bench/cost_at_truth.py DIR NAME [--point v1,v2,...] [--theta0 a,b,...]
+                                          [--steady auto|full]
 
-Measured on blind-12 (stop 25; see docs/DIAGNOSIS.md, the pair class).
+``--steady full`` evaluates with literal runs, to tell the steady-state engine's part in a
+fit from the search's. First used on blind-12 (bench/results/2026-11-diagnosis-log.md,
+"Stop 24").
 """
 
 from __future__ import annotations
@@ -37,10 +40,13 @@ def main() -> int:
     ap.add_argument("--theta0", default="",
                     help="comma-separated phases at rest (rad) to evaluate the truth at")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--steady", choices=("auto", "full"), default="auto",
+                    help="the runs' steady-state engine (default auto, as a diagnosis)")
     args = ap.parse_args()
     truth = json.loads((args.folder / "campaigns" / "truth.json").read_text())[args.name]
     camp = load_campaign(args.folder / "campaigns" / args.name)
-    settings = RunSettings(campaign_preset(camp), cycles=300, analyse_cycles=200)
+    settings = RunSettings(campaign_preset(camp), cycles=300, analyse_cycles=200,
+                           steady=args.steady)
     nuis = resolve_nuisance(tuple(DEFAULT_NUISANCE), settings)
     keys = tuple(t["key"] for t in truth["truths"])
     hyp = Hypothesis(keys, nuis)

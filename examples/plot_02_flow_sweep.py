@@ -11,7 +11,8 @@ regime boundaries with those of its section 4.1.
 import os
 
 import numpy as np
-from vadsim import plots, sweep, thesis
+from vadsim import plots
+from vadsim.studies import sweep, thesis
 
 FULL = os.environ.get("VADSIM_GALLERY_FULL") == "1"
 step = 10 if FULL else 25

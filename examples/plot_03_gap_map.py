@@ -11,7 +11,8 @@ the dissertation needed days for; vadsim runs it in a few minutes on two cores.
 import os
 
 import numpy as np
-from vadsim import design, plots, sweep
+from vadsim import plots
+from vadsim.studies import design, sweep
 
 FULL = os.environ.get("VADSIM_GALLERY_FULL") == "1"
 gaps = np.linspace(0.85, 1.5, 85 if FULL else 8)

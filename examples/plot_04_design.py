@@ -12,7 +12,8 @@ tool over the field's flows.
 import os
 
 import pandas as pd
-from vadsim import design, plots
+from vadsim import plots
+from vadsim.studies import design
 
 FULL = os.environ.get("VADSIM_GALLERY_FULL") == "1"
 flows = design.thesis_flows("7in-cde", hz_step=0.5 if FULL else 3.0)

@@ -10,7 +10,8 @@ feature; a residual is (model - recorded) / the recording's own spread.
 
 import os
 
-from vadsim import plots, validate
+from vadsim import plots
+from vadsim.fit import validate
 
 FULL = os.environ.get("VADSIM_GALLERY_FULL") == "1"
 cycles = {} if FULL else {"cycles": 240, "analyse_cycles": 160}

@@ -13,8 +13,9 @@ runs that one.
 import dataclasses
 import os
 
-from vadsim import calibrate, plots, validate
+from vadsim import plots
 from vadsim.campaigns import load_any_campaign
+from vadsim.fit import calibrate, validate
 
 FULL = os.environ.get("VADSIM_GALLERY_FULL") == "1"
 campaign = load_any_campaign("thesis:9.5in-pdc")

@@ -11,7 +11,9 @@ fits the candidate physics on held-out flows and names what is missing, with its
 
 import os
 
-from vadsim import candidates, diagnose, plots, synthetic
+from vadsim import plots
+from vadsim.campaigns import synthetic
+from vadsim.fit import candidates, diagnosis
 
 FULL = os.environ.get("VADSIM_GALLERY_FULL") == "1"
 run = {} if FULL else {"cycles": 160, "analyse_cycles": 100}
@@ -19,7 +21,7 @@ truth = candidates.CANDIDATES["hydraulic_force[anvil]"].change({"f_ref": 64.0, "
 camp = synthetic.synthetic_campaign("7in-cde", (200, 300, 400, 500, 600, 650), change=truth,
                                     duration_s=8 if FULL else 3, seed=11, **run)
 offered = None if FULL else ["hydraulic_force", "anvil_friction"]
-d = diagnose.diagnose(camp, candidates=offered, phases=4 if FULL else 2, progress=False,
+d = diagnosis.diagnose(camp, candidates=offered, phases=4 if FULL else 2, progress=False,
                       **run)
 print(d.summary())
 

@@ -17,9 +17,10 @@ import os
 import tempfile
 from pathlib import Path
 
-from vadsim import diagnose, plots, validate
+from vadsim import plots
 from vadsim.campaigns import campaign_text, import_campaign, load_campaign
 from vadsim.campaigns.flowstep import flow_step_test
+from vadsim.fit import diagnosis, validate
 
 FULL = os.environ.get("VADSIM_GALLERY_FULL") == "1"
 folder = Path(tempfile.mkdtemp(prefix="vadsim-import-"))
@@ -66,7 +67,7 @@ fig_peaks = plots.validation_peaks(res)
 # The diagnosis: with the base model's uncertain constants calibrated, is anything missing?
 offered = None if FULL else ["hydraulic_force", "anvil_friction"]
 short = {} if FULL else {"cycles": 160, "analyse_cycles": 100}
-d = diagnose.diagnose(camp, candidates=offered, phases=4 if FULL else 2, progress=False,
+d = diagnosis.diagnose(camp, candidates=offered, phases=4 if FULL else 2, progress=False,
                       **short)
 print(d.verdict_text())
 assert d.missing_physics == ["none"], d.summary()

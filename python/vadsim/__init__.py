@@ -6,8 +6,10 @@ contact switch located by root-finding. See MODEL.md in the docs for every equat
 
 The package is layered (docs/ARCHITECTURE.md): ``model`` (presets, one run, run settings) ->
 ``signals`` (labels, features, sensor chain) -> ``campaigns`` (the recordings format) ->
-``compare`` (the one comparison engine) -> ``fit`` (validate, calibrate, diagnose) and
-``studies`` (sweeps, maps, design) -> ``report`` and ``plots`` -> ``cli``.
+``compare`` (the one comparison engine) -> ``fit`` (validate, calibrate, diagnosis) and
+``studies`` (sweeps, maps, design) -> ``report`` and ``plots`` -> ``cli``. Each module has one
+import path (``vadsim.studies.sweep``, ``vadsim.fit.diagnosis``, ...); this facade holds what a
+first script needs.
 
 Quick start
 -----------
@@ -17,11 +19,12 @@ Quick start
 1
 """
 
+import importlib as _importlib
+
 from vadsim import _aliases
-from vadsim import campaigns as recordings
 from vadsim._interrupt import stop_on_interrupt
 from vadsim._version import __version__
-from vadsim.model import presets
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import (
     PRESETS,
     Preset,
@@ -30,49 +33,32 @@ from vadsim.model.presets import (
     param_names,
     preset_names,
 )
+from vadsim.model.result import SURFACES, G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import (
-    SURFACES,
-    G,
-    SimulationResult,
-    SolverError,
-    extra_force,
-    simulate,
-)
-from vadsim.signals import labels, sensor
+from vadsim.model.simulate import SolverError, extra_force, simulate
 
-_aliases.install(eager=("vadsim.presets", "vadsim.simulate", "vadsim.labels", "vadsim.sensor",
-                        "vadsim.recordings"))
+_aliases.install()
 
-# The analysis modules pull in xarray, matplotlib and dask: loaded on first use, so that
+# Packages of their own, loaded on first use: they pull in xarray, matplotlib and dask, and
 # `import vadsim` stays quick for a single run.
-_LAZY = {
-    "blind": "vadsim.blind",
-    "calibrate": "vadsim.fit.calibrate",
-    "candidates": "vadsim.fit.candidates",
-    "compare": "vadsim.compare",
-    "design": "vadsim.studies.design",
-    "diagnose": "vadsim.fit.diagnose",
-    "features": "vadsim.signals.features",
-    "locate": "vadsim.fit.locate",
-    "plots": "vadsim.plots",
-    "report": "vadsim.report",
-    "sweep": "vadsim.studies.sweep",
-    "synthetic": "vadsim.campaigns.synthetic",
-    "thesis": "vadsim.studies.thesis",
-    "validate": "vadsim.fit.validate",
-}
+_LAZY = ("blind", "campaigns", "compare", "fit", "model", "plots", "report", "signals",
+         "studies")
+
+# vadsim 0.1's short names of modules, deprecated (vadsim._aliases).
+_OLD = {old.split(".", 1)[1]: old for old in _aliases.ALIASES if old.count(".") == 1}
 
 
 def __getattr__(name: str):
     if name in _LAZY:
-        import importlib
-
-        return importlib.import_module(_LAZY[name])
+        return _importlib.import_module(f"vadsim.{name}")
+    if name in _OLD and name != "simulate":
+        _aliases.deprecated(_OLD[name])
+        return _importlib.import_module(_aliases.ALIASES[_OLD[name]])
     raise AttributeError(f"module 'vadsim' has no attribute {name!r}")
 
 
 __all__ = [
+    "DEFAULTS",
     "G",
     "PRESETS",
     "SURFACES",
@@ -82,28 +68,19 @@ __all__ = [
     "SolverError",
     "__version__",
     "blind",
-    "calibrate",
-    "candidates",
+    "campaigns",
     "compare",
-    "design",
-    "diagnose",
     "extra_force",
-    "features",
+    "fit",
     "get_preset",
-    "labels",
-    "locate",
     "make_params",
+    "model",
     "param_names",
     "plots",
     "preset_names",
-    "presets",
-    "recordings",
     "report",
-    "sensor",
+    "signals",
     "simulate",
     "stop_on_interrupt",
-    "sweep",
-    "synthetic",
-    "thesis",
-    "validate",
+    "studies",
 ]

@@ -1,9 +1,11 @@
-"""The import paths of vadsim 0.1 (``vadsim.sweep``, ``vadsim.presets``, ...), kept working.
+"""The import paths of vadsim 0.1 (``vadsim.sweep``, ``vadsim.presets``, ...), deprecated.
 
 Why this module exists: users' scripts import ``from vadsim.sweep import sweep``; the package
-now keeps each layer in its own folder (``vadsim.studies.sweep``). A meta-path finder maps each
-old name to its new module, so both names give the same module object (no copies, no shims),
-and the lazy modules stay lazy.
+keeps each layer in its own folder (``vadsim.studies.sweep``), one import path per module.
+For one release (0.2) the old paths still work and say where the module went: a
+meta-path finder maps each old name to a small module that forwards every attribute to the
+new one with a :class:`DeprecationWarning` naming the new path. The modules behind stay lazy.
+The old paths go in 0.3.
 """
 
 from __future__ import annotations
@@ -13,9 +15,11 @@ import importlib.abc
 import importlib.machinery
 import importlib.util
 import sys
+import warnings
 from types import ModuleType
+from typing import Any
 
-__all__ = ["ALIASES", "install"]
+__all__ = ["ALIASES", "MOVED_OUT", "deprecated", "install"]
 
 ALIASES: dict[str, str] = {
     "vadsim.presets": "vadsim.model.presets",
@@ -27,7 +31,8 @@ ALIASES: dict[str, str] = {
     "vadsim.synthetic": "vadsim.campaigns.synthetic",
     "vadsim.validate": "vadsim.fit.validate",
     "vadsim.calibrate": "vadsim.fit.calibrate",
-    "vadsim.diagnose": "vadsim.fit.diagnose",
+    "vadsim.diagnose": "vadsim.fit.diagnosis",
+    "vadsim.fit.diagnose": "vadsim.fit.diagnosis",
     "vadsim.candidates": "vadsim.fit.candidates",
     "vadsim.locate": "vadsim.fit.locate",
     "vadsim.sweep": "vadsim.studies.sweep",
@@ -36,36 +41,80 @@ ALIASES: dict[str, str] = {
 }
 """Old module path -> the module that now holds it."""
 
+MOVED_OUT: dict[str, tuple[str, ...]] = {
+    "vadsim.simulate": ("vadsim.model.result",),
+    "vadsim.features": ("vadsim.signals.window_features", "vadsim.signals.bands"),
+    "vadsim.calibrate": ("vadsim.fit.calibration_targets", "vadsim.fit.calibration_search"),
+}
+"""Old module path -> the modules that 0.2 split out of its new module: a name read from the
+old path is looked up there too, so a 0.1 script keeps working (with the warning)."""
+
+
+def deprecated(old: str, stacklevel: int = 3) -> None:
+    """Warn that ``old`` is an old import path, naming the new one."""
+    warnings.warn(f"{old} is deprecated since vadsim 0.2 and goes in 0.3: import "
+                  f"{ALIASES[old]} instead", DeprecationWarning, stacklevel=stacklevel)
+
+
+class _Forwarding(ModuleType):
+    """An old path: every attribute read from the new module, with a warning."""
+
+    def __init__(self, old: str) -> None:
+        super().__init__(old)
+        self.__dict__["_vadsim_target"] = ALIASES[old]
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") and name.endswith("__"):
+            raise AttributeError(name)
+        deprecated(self.__name__)
+        for target in self._targets():
+            module = importlib.import_module(target)
+            if hasattr(module, name):
+                return getattr(module, name)
+        raise AttributeError(f"module {self.__name__!r} (now {self._targets()[0]}) has no "
+                             f"attribute {name!r}")
+
+    def _targets(self) -> tuple[str, ...]:
+        return (self.__dict__["_vadsim_target"], *MOVED_OUT.get(self.__name__, ()))
+
+    def __dir__(self) -> list[str]:
+        return sorted({n for t in self._targets() for n in dir(importlib.import_module(t))})
+
 
 class _AliasLoader(importlib.abc.Loader):
-    def __init__(self, target: str) -> None:
-        self.target = target
-        self.spec: importlib.machinery.ModuleSpec | None = None
-
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
-        module = importlib.import_module(self.target)
-        self.spec = module.__spec__
-        return module
+        return _Forwarding(spec.name)
 
     def exec_module(self, module: ModuleType) -> None:
-        # the import system stamped the alias' spec on the real module: give it its own back
-        module.__spec__ = self.spec
+        pass
 
 
 class _AliasFinder(importlib.abc.MetaPathFinder):
     def find_spec(self, fullname: str, path: object = None, target: object = None
                   ) -> importlib.machinery.ModuleSpec | None:
-        new = ALIASES.get(fullname)
-        if new is None:
+        if fullname not in ALIASES:
             return None
-        return importlib.util.spec_from_loader(fullname, _AliasLoader(new))
+        return importlib.util.spec_from_loader(fullname, _AliasLoader())
 
 
-def install(eager: tuple[str, ...] = ()) -> None:
-    """Put the finder on ``sys.meta_path`` once; register ``eager`` aliases (of modules already
-    imported) now, so that their first import cannot replace an attribute of ``vadsim`` that
-    has the same name (``vadsim.simulate`` is the function, not the module)."""
+class _Facade(ModuleType):
+    """The ``vadsim`` package, which does not bind an old path's module to its short name.
+
+    Python's import system sets ``vadsim.sweep`` once ``vadsim.sweep`` is imported; the short
+    name would then skip the facade's ``__getattr__`` (and its warning), and ``import
+    vadsim.simulate`` would replace the function. Old paths stay reachable through
+    ``sys.modules``."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(value, _Forwarding):
+            return
+        super().__setattr__(name, value)
+
+
+def install() -> None:
+    """Put the finder on ``sys.meta_path`` once, and keep old modules off the facade."""
     if not any(isinstance(f, _AliasFinder) for f in sys.meta_path):
         sys.meta_path.append(_AliasFinder())
-    for old in eager:
-        sys.modules.setdefault(old, sys.modules[ALIASES[old]])
+    facade = sys.modules["vadsim"]
+    if type(facade) is ModuleType:
+        facade.__class__ = _Facade

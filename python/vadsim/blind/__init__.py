@@ -12,7 +12,7 @@ benchmark writes campaigns in the RECORDINGS.md format from classes of scenarios
 effects, one-sensor effects, the RC bit, five events, 1 g noise), through the sensor chain
 with noise, under neutral names in shuffled order; the truth and each campaign's class go to
 ``truth.json``, which the diagnosis never reads (it loads each campaign from disk). It then
-runs :func:`vadsim.fit.diagnose.diagnose` on every campaign and scores per class and overall
+runs :func:`vadsim.fit.diagnosis.diagnose` on every campaign and scores per class and overall
 (:mod:`vadsim.blind.scoring`): identification, variants, false alarms, parameter errors,
 held-out improvement, nuisance recovery, and the acceptance criteria as PASS/FAIL lines.
 
@@ -49,7 +49,8 @@ from vadsim.blind.scoring import CRITERIA, normalise_result, normalise_truth, sc
 from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import CampaignEvaluator
-from vadsim.fit.diagnose import diagnose
+from vadsim.fit.diagnosis import diagnose
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import get_preset
 from vadsim.model.settings import RunSettings
 from vadsim.report.blind import blind_markdown
@@ -91,11 +92,16 @@ def _write_json(path: Path, data: Any) -> None:
 def write_campaigns(folder: str | os.PathLike[str],
                     scenarios: Sequence[Scenario] = DEFAULT_SCENARIOS, *,
                     classes: Sequence[str] | None = None, seed: int = 2026,
-                    duration_s: float | None = None, cycles: float = 300,
-                    analyse_cycles: float = 200, library: Mapping[str, Any] | None = None,
+                    duration_s: float | None = None,
+                    cycles: float = DEFAULTS.recording_cycles,
+                    analyse_cycles: float = DEFAULTS.analyse_cycles,
+                    library: Mapping[str, Any] | None = None,
                     progress: ProgressArg = False) -> list[Path]:
     """Write the campaigns of ``classes`` (None: all) under neutral shuffled names; their
     truths and classes to ``truth.json``.
+
+    Why so many parameters: writing the campaigns takes the scenario set (classes, seed,
+    duration) and the settings of the synthetic recordings; keyword-only with defaults.
 
     Names and noise seeds are drawn over all ``scenarios``, so writing some classes now and
     others later into the same folder gives the same campaigns as writing all at once;
@@ -138,8 +144,10 @@ def write_campaigns(folder: str | os.PathLike[str],
 
 
 def detectability(scenario: Scenario, *, library: Mapping[str, Any] | None = None,
-                  seed: int = 0, duration_s: float | None = None, cycles: float = 300,
-                  analyse_cycles: float = 200, phases: int = 4, workers: int | None = None
+                  seed: int = 0, duration_s: float | None = None,
+                  cycles: float = DEFAULTS.recording_cycles,
+                  analyse_cycles: float = DEFAULTS.analyse_cycles,
+                  phases: int = DEFAULTS.diagnosis_phases, workers: int | None = None
                   ) -> dict[float, float]:
     """How visible a scenario's effects are: per event (by flow), the RMS standardised
     residual of the base model with the scenario's nuisance truth against a campaign written
@@ -211,8 +219,8 @@ def blind_benchmark(
     scenarios: Sequence[Scenario] = DEFAULT_SCENARIOS,
     duration_s: float | None = None,
     seed: int = 2026,
-    cycles: float = 300,
-    analyse_cycles: float = 200,
+    cycles: float = DEFAULTS.recording_cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
     workers: int | None = None,
     diagnose_kwargs: Mapping[str, Any] | None = None,
     library: Mapping[str, Any] | None = None,
@@ -222,10 +230,13 @@ def blind_benchmark(
     """Write the concealed campaigns of ``classes`` (None: all), diagnose each from disk,
     score, and write ``scores.json`` and ``scores.md`` into ``folder``.
 
+    Why so many parameters: the benchmark is the scenario set (classes, seed, duration), the
+    diagnosis' run settings and its bookkeeping (resume, progress); keyword-only with defaults.
+
     Finished diagnoses are kept in ``results/`` and reused, so an interrupted benchmark
     resumes and classes run later are added to the same folder; the scores cover every
     campaign of the selected classes. ``diagnose_kwargs`` go to
-    :func:`~vadsim.fit.diagnose.diagnose` as they are (its thresholds, nuisance constants,
+    :func:`~vadsim.fit.diagnosis.diagnose` as they are (its thresholds, nuisance constants,
     candidates). A folder from the earlier benchmark (``truth.json`` without
     ``benchmark.json``) is diagnosed and scored as it is, in one class "default".
     ``finished_only`` scores the campaigns already diagnosed and runs nothing (the scores

@@ -2,7 +2,7 @@
 field tables, synthetic campaigns written by the model, and imports of a continuous downhole
 record with a surface log (``import_campaign``; ``flowstep`` writes a synthetic one).
 
-``vadsim.recordings`` (the old path) is this package.
+``vadsim.campaigns`` (the old path) is this package.
 """
 
 from vadsim.campaigns.format import (

@@ -24,8 +24,9 @@ import pandas as pd
 from vadsim.campaigns.format import Sensor
 from vadsim.campaigns.synthetic import DEFAULT_SENSORS
 from vadsim.model.presets import get_preset
+from vadsim.model.result import G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G, SimulationResult, simulate
+from vadsim.model.simulate import simulate
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
 __all__ = ["RECORD_COLUMNS", "FlowStepTest", "flow_step_test"]
@@ -163,6 +164,10 @@ def flow_step_test(
     seed: int = 0,
 ) -> FlowStepTest:
     """Simulate a flow-step test as one continuous record and a surface log.
+
+    Why so many parameters: the test is a flow program (flows, step and settle times), a model
+    run and a vendor's files (units, clock offset, log rate); each is one of those, keyword-only
+    with defaults.
 
     Parameters
     ----------

@@ -12,7 +12,7 @@ import textwrap
 import numpy as np
 
 from vadsim.campaigns.format import Campaign
-from vadsim.model.simulate import DOF_NAMES
+from vadsim.model.result import DOF_NAMES
 
 __all__ = ["campaign_text"]
 

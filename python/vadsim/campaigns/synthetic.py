@@ -3,8 +3,8 @@
 Why this module exists: a calibration or a diagnosis is only trustworthy if it recovers what
 was put in. This module simulates a campaign's events (optionally with extra physics or
 changed parameters), passes each sensor's acceleration through its chain (low-pass, sampling
-at a random phase, noise, clipping) and returns a :class:`~vadsim.recordings.Campaign` in the
-RECORDINGS.md format, ready to save with :func:`~vadsim.recordings.save_campaign`.
+at a random phase, noise, clipping) and returns a :class:`~vadsim.campaigns.Campaign` in the
+RECORDINGS.md format, ready to save with :func:`~vadsim.campaigns.save_campaign`.
 """
 
 from __future__ import annotations
@@ -18,9 +18,10 @@ import pandas as pd
 
 from vadsim.campaigns import Campaign, Event, Sensor
 from vadsim.model.change import ModelChange
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import Preset, get_preset
+from vadsim.model.result import G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import G, SimulationResult
 from vadsim.model.steady import steady_run
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
@@ -46,13 +47,17 @@ def synthetic_campaign(
     wob_klbf: float | Sequence[float] | None = None,
     sensors: Mapping[str, Sensor] | None = None,
     duration_s: float | None = None,
-    cycles: float = 400,
-    analyse_cycles: float = 200,
+    cycles: float = DEFAULTS.cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
     noise_g: float = 0.3,
     seed: int = 0,
     name: str = "synthetic campaign",
 ) -> Campaign:
     """Simulate one event per flow and record it as a campaign.
+
+    Why so many parameters: a synthetic campaign is a model run (preset, overrides, change, WOB)
+    through a sensor chain (rate, range, low-pass, noise, phase) at given flows; each is one of
+    those, keyword-only with defaults.
 
     Parameters
     ----------
@@ -65,7 +70,7 @@ def synthetic_campaign(
     measurement
         What happens to each sensor's true acceleration before its chain,
         ``measurement(sensor_name, a_g, fine_rate_hz) -> a_g`` (see
-        :data:`vadsim.validate.Measurement`); e.g. a mount resonance.
+        :data:`vadsim.fit.validate.Measurement`); e.g. a mount resonance.
     change
         A :class:`~vadsim.model.change.ModelChange` applied on top, at each event's flow
         (scales, flow powers, theta0, extras, measurement): how a concealed truth is written
@@ -124,6 +129,9 @@ def record_run(r: SimulationResult, sensors: Mapping[str, Sensor], *, event_id: 
                fine_rate_hz: float | None = None) -> Event:
     """One event recorded from a run on a fine grid: each sensor's chain at sampling
     ``phase`` (fraction of a sample) with Gaussian noise, cut to ``duration_s``.
+
+    Why so many parameters: a recording is a run through a sensor chain, each of whose settings
+    (rate, range, low-pass, noise, phase, seed) a campaign states.
 
     What a campaign's recording of that run would be; also how a calibration draws the
     recordings its parametric bootstrap needs. ``fine_rate_hz`` is the run's output rate

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 import tomli_w
 
+from vadsim.campaigns.event_csv import time_problem
 from vadsim.campaigns.format import (
     CAMPAIGN_FILE,
     KNOWN_TOOLS,
@@ -22,18 +23,13 @@ from vadsim.campaigns.format import (
     Sensor,
     excerpt,
 )
-from vadsim.campaigns.reading import (
-    CampaignPathError,
-    TomlContext,
-    parse_document,
-    time_problem,
-    tool_file,
-)
+from vadsim.campaigns.reading import CampaignPathError, parse_document, tool_file
+from vadsim.campaigns.toml_keys import TomlContext
 
 __all__ = ["save_campaign"]
 
 #: First line of every campaign.toml written here (tomli-w writes no comments).
-HEADER_COMMENT = "# Field-test campaign, format of RECORDINGS.md (written by vadsim.recordings)."
+HEADER_COMMENT = "# Field-test campaign, format of RECORDINGS.md (written by vadsim.campaigns)."
 
 
 def _as_number(value: Any) -> int | float:

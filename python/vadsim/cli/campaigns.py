@@ -23,6 +23,7 @@ from vadsim.cli.common import (
     parse_pairs,
     workers_parent,
 )
+from vadsim.model.defaults import DEFAULTS
 
 __all__ = ["add_parsers", "parse_bounds"]
 
@@ -142,7 +143,7 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
         "and give a verdict: the missing physics, 'none', or an unexplained mismatch. "
         "Writes a report (diagnosis.md/.html, diagnosis.json, figures). Example: "
         "vadsim diagnose thesis:7in-cde --predict thesis:7in-rc --json",
-        parents=[parents.overrides, length_parent(cycles=300), parents.quiet,
+        parents=[parents.overrides, length_parent(cycles=DEFAULTS.recording_cycles), parents.quiet,
                  workers_parent(what="worker processes for the candidates"),
                  parents.scheduler],
     )
@@ -267,13 +268,14 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from vadsim.fit.diagnose import diagnose, predict
+    from vadsim.fit.diagnosis.pipeline import diagnose, predict
     from vadsim.fit.nuisance import DEFAULT_NUISANCE
     from vadsim.report.diagnosis import write_diagnosis_report
 
     nuisance: list[Any] = [] if args.no_nuisance else [*DEFAULT_NUISANCE, *(args.nuisance or [])]
-    diag = diagnose(_campaign(args), candidates=args.candidates, nuisance=nuisance,
-                    overrides=parse_overrides(args.set), cycles=args.cycles,
+    campaign, overrides = _campaign(args), parse_overrides(args.set)
+    diag = diagnose(campaign, candidates=args.candidates, nuisance=nuisance,
+                    overrides=overrides, cycles=args.cycles,
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
                     max_effects=args.max_effects, max_rms=args.max_rms,

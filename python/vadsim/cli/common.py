@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from vadsim.model.defaults import DEFAULTS
+
 __all__ = [
     "DEFAULT_PRESET",
     "FIGURE_SUFFIXES",
@@ -61,7 +63,8 @@ def overrides_parent() -> argparse.ArgumentParser:
     return p
 
 
-def length_parent(cycles: float = 400, analyse: float = 200) -> argparse.ArgumentParser:
+def length_parent(cycles: float = DEFAULTS.cycles, analyse: float = DEFAULTS.analyse_cycles
+                  ) -> argparse.ArgumentParser:
     """``--cycles`` and ``--analyse``: run length and the steady window, in excitation cycles."""
     p = _parent()
     p.add_argument("--cycles", type=float, default=cycles,
@@ -109,7 +112,8 @@ def quiet_parent() -> argparse.ArgumentParser:
 class Parents:
     """The parent parsers of one ``build_parser()`` call, shared by the commands that take them.
 
-    A command with different defaults calls the factory itself, e.g. ``length_parent(300)``.
+    A command with different defaults calls the factory itself, e.g.
+    ``length_parent(DEFAULTS.recording_cycles)``.
     """
 
     overrides: argparse.ArgumentParser

@@ -23,7 +23,8 @@ from vadsim.cli.common import (
     workers_parent,
 )
 from vadsim.model.presets import PRESETS, get_preset, param_table
-from vadsim.model.simulate import SURFACES, SimulationResult, simulate
+from vadsim.model.result import SURFACES, SimulationResult
+from vadsim.model.simulate import simulate
 from vadsim.signals.labels import regime_name
 
 if TYPE_CHECKING:

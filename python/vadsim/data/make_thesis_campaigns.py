@@ -1,7 +1,7 @@
 """Regenerate the shipped thesis campaigns from the dissertation's field table.
 
 Why a script: the campaign folders under ``campaigns/`` are what
-:func:`vadsim.recordings.thesis_campaigns` loads, and they must stay a faithful, reviewable
+:func:`vadsim.campaigns.thesis_campaigns` loads, and they must stay a faithful, reviewable
 transcription of ``thesis/field_events.csv``. Generating them (rather than editing TOML by hand)
 keeps one source of truth; a test regenerates them into a temporary folder and compares.
 
@@ -46,7 +46,7 @@ def build_campaigns(table: Path = FIELD_TABLE) -> dict[str, Any]:
 
     Returns
     -------
-    dict of str to vadsim.recordings.Campaign
+    dict of str to vadsim.campaigns.Campaign
         Keyed ``<tool>-<bit, lower case>``, in table order.
     """
     from vadsim.campaigns import Campaign, Event, Sensor

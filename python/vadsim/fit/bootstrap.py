@@ -27,7 +27,8 @@ import numpy as np
 from vadsim.campaigns.synthetic import record_run
 from vadsim.compare import CampaignEvaluator, EventSimulation, fine_rate_hz, recorded_features
 from vadsim.model.change import ModelChange
-from vadsim.model.simulate import SimulationResult, SolverError
+from vadsim.model.result import SimulationResult
+from vadsim.model.simulate import SolverError
 from vadsim.model.steady import steady_run
 
 __all__ = ["BOOTSTRAP_RUNS", "cost_rises"]
@@ -75,6 +76,10 @@ def cost_rises(evaluator: CampaignEvaluator, change: ModelChange,
                n_runs: int = BOOTSTRAP_RUNS) -> dict[str, np.ndarray]:
     """Per group of probes, the cost rise at the estimate above the group's best probe, for
     each of ``n_boot`` campaigns the fitted model writes.
+
+    Why so many parameters: the bootstrap reuses a calibration's work instead of redoing it,
+    so it takes that work as it is (the engine, the estimate, the probes already simulated,
+    their grouping and the cost), plus its own size, noise, seed and runs per event.
 
     Parameters
     ----------

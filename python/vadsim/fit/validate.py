@@ -37,11 +37,12 @@ from vadsim.compare import (
     simulate_event,
 )
 from vadsim.model.cache import ResultCache, Uncacheable, default_cache
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import Preset
 from vadsim.model.settings import RunSettings
 from vadsim.signals.features import Feature
 
-__all__ = ["ValidationResult", "findings", "validate"]
+__all__ = ["ValidationResult", "validate"]
 
 
 
@@ -119,8 +120,8 @@ def validate(
     overrides: Mapping[str, float] | None = None,
     extras: Sequence[Any] = (),
     law: str | None = None,
-    cycles: float = 400,
-    analyse_cycles: float = 200,
+    cycles: float = DEFAULTS.cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
     workers: int | None = None,
     preset: Preset | None = None,
     measurement: Measurement | None = None,
@@ -129,6 +130,11 @@ def validate(
     cache: ResultCache | str | os.PathLike[str] | bool | None = None,
 ) -> ValidationResult:
     """Simulate every event of a campaign (in parallel threads) and compare features.
+
+    Why so many parameters: the base model is given piece by piece as the command line does
+    (``preset``, ``overrides``, ``extras``, ``law``, ``cycles``, ``analyse_cycles``) or whole
+    as ``settings``; the rest say what happens to the sensors' signals (``measurement``) and
+    how the runs are made (``workers``, ``cache``, ``progress``).
 
     The base model is ``settings``, or the campaign's preset (or ``preset``) with
     ``overrides``, ``extras``, ``law``, ``cycles`` and ``analyse_cycles``. ``progress``
@@ -194,46 +200,3 @@ def _simulate_cached(store: ResultCache | None, camp: Campaign, ev: Event,
         assert store is not None
         store.put(key, sim.to_json())
     return sim
-
-
-def findings(result: ValidationResult, threshold: float = 1.0) -> list[str]:
-    """Plain-language statements of where the model matches and where it does not: for each
-    compared feature (through the sensor chain and at full resolution), the mean
-    standardised residual over the lower and the upper half of the campaign's flows."""
-    flows = pd.Series({ev.id: ev.flow_gpm for ev in result.campaign.events})
-    median = float(flows.median())
-    low = flows.index[flows <= median]
-    high = flows.index[flows > median]
-    out = []
-    for label, res in (("through the sensor chain", result.residuals),
-                       ("at full resolution", result.residuals_full)):
-        for key in res.columns:
-            col = res[key].dropna()
-            if col.empty:
-                continue
-            parts = []
-            for name, ids in ((f"flows <= {median:g} gal/min", low),
-                              (f"flows > {median:g} gal/min", high)):
-                z = col.reindex(ids).dropna()
-                if z.empty:
-                    continue
-                m = float(z.mean())
-                verdict = ("over-predicts" if m > threshold else
-                           "under-predicts" if m < -threshold else "matches")
-                parts.append(f"{verdict} at {name} (mean z {m:+.1f}, {len(z)} events)")
-            if parts:
-                out.append(f"{key} {label}: the model " + "; ".join(parts) + ".")
-    missing = result.not_compared()
-    for key, group in missing.groupby("feature", sort=False):
-        out.append(f"{key} could not be compared at {len(group)} event(s): "
-                   f"{group['reason'].iloc[0]}.")
-    return out
-
-
-def __getattr__(name: str) -> Any:
-    # vadsim 0.1 kept the report writer here; it now lives in vadsim.report
-    if name == "write_report":
-        from vadsim.report.validation import write_validation_report
-
-        return write_validation_report
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

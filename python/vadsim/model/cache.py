@@ -15,8 +15,8 @@ only as a regular file inside it (a link, a folder, a device or a pipe in its pl
 with a size cap on disk and inflated (:data:`MAX_ENTRY_BYTES`), and checked against the
 reader's schema after its checksum (``get(key, parse=...)``); whatever fails is removed.
 
-Opt-in: pass a folder (``cache=`` in :func:`vadsim.diagnose`, ``--cache DIR`` on the CLI) or
-set ``VADSIM_CACHE=DIR``. The folder may be deleted at any time.
+Opt-in: pass a folder (``cache=`` in :func:`vadsim.fit.diagnosis.diagnose`, ``--cache DIR`` on
+the CLI) or set ``VADSIM_CACHE=DIR``. The folder may be deleted at any time.
 """
 
 from __future__ import annotations

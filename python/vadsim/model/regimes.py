@@ -2,7 +2,7 @@
 the dissertation's scenarios (Table 4.2).
 
 Why this module is in the model layer: the scenario is part of what a run *is* (its
-:attr:`~vadsim.model.simulate.SimulationResult.scenario`), decided from two numbers the core
+:attr:`~vadsim.model.result.SimulationResult.scenario`), decided from two numbers the core
 counts; the signal-level labels (:mod:`vadsim.signals.labels`) re-export it.
 """
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from vadsim import _core
 from vadsim._checks import shown
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import (
     OPTIONAL_PARAMS,
     Preset,
@@ -28,9 +29,13 @@ from vadsim.model.presets import (
     make_params,
     override_values,
 )
-from vadsim.model.simulate import SimulationResult, extra_force, simulate
+from vadsim.model.result import SimulationResult
+from vadsim.model.simulate import extra_force, simulate
 
 __all__ = ["ExtraSpec", "RunSettings", "excitation_hz"]
+
+
+
 
 
 def excitation_hz(alpha: float, flow_gpm: float | np.ndarray) -> Any:
@@ -116,8 +121,8 @@ class RunSettings:
     overrides: Mapping[str, float] = field(default_factory=dict)
     extras: tuple[ExtraSpec | _core.ExtraForce, ...] = ()
     law: str | None = None
-    cycles: float = 400
-    analyse_cycles: float = 200
+    cycles: float = DEFAULTS.cycles
+    analyse_cycles: float = DEFAULTS.analyse_cycles
     wob_klbf: float | None = None
     method: str = "adams"
     rtol: float = 1e-6

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from vadsim.model.result import SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import SimulationResult
 
 __all__ = ["DRIFT_TOL", "MAX_EXTENSIONS", "steady_run", "window_drift"]
 

@@ -5,9 +5,10 @@ impacts per cycle against flow rate (Figs 3.42, 4.27), impulse per second J* col
 regime (Fig 4.28), regime and J* maps over excitation frequency and a design parameter (Figs
 5.1-5.6), the original against the recommended design (Fig 5.7) and time traces of contact
 forces, indentations and acceleration (Figs 4.2-4.6). This package draws each of them from the
-objects the rest of vadsim returns (an :class:`xarray.Dataset` of :func:`vadsim.sweep.sweep`, a
-:class:`vadsim.SimulationResult`, a pandas table of residuals), with one regime colour table
-(:data:`REGIME_COLORS`) so that a regime has the same colour in every figure.
+objects the rest of vadsim returns (an :class:`xarray.Dataset` of
+:func:`vadsim.studies.sweep.sweep`, a :class:`vadsim.SimulationResult`, a pandas table of
+residuals), with one regime colour table (:data:`REGIME_COLORS`) so that a regime has the same
+colour in every figure.
 
 One module per subject, every public name re-exported here (``from vadsim import plots;
 plots.regime_map(...)``):

@@ -38,7 +38,7 @@ from vadsim.signals.features import Feature
 
 if TYPE_CHECKING:
     from vadsim.campaigns.format import Campaign
-    from vadsim.fit.diagnose import Diagnosis
+    from vadsim.fit.diagnosis import Diagnosis
     from vadsim.fit.validate import ValidationResult
 
 __all__ = [
@@ -68,6 +68,9 @@ def mismatch_heatmap(
     path: str | os.PathLike[str] | None = None,
 ) -> Figure:
     """Heat map of standardised residuals, events as rows and features as columns.
+
+    Why so many parameters: a heat map of residuals takes the table and the choices of one
+    figure (order, limits, labels, file); each with a default.
 
     A diverging colour map centred at 0 (colour limits -vmax..vmax), each cell annotated with
     its value; missing values are grey and annotated "n/a". A table too wide for its numbers

@@ -3,7 +3,7 @@
 The dissertation's Figs 3.42 and 4.27b (:func:`peaks_vs_flow`, optionally over its own field
 and simulated points), 4.27a (:func:`z_vs_flow`, on bands of the impact regime) and 4.28
 (:func:`j_vs_flow`, points coloured by regime). Each takes a flow sweep of
-:func:`vadsim.sweep.sweep`; design dimensions of size 1 are dropped, larger ones refused.
+:func:`vadsim.studies.sweep.sweep`; design dimensions of size 1 are dropped, larger ones refused.
 """
 
 from __future__ import annotations
@@ -158,7 +158,7 @@ def peaks_vs_flow(
     Parameters
     ----------
     ds
-        A flow sweep (:func:`vadsim.sweep.flow_sweep`); design dimensions of size 1 are
+        A flow sweep (:func:`vadsim.studies.sweep.flow_sweep`); design dimensions of size 1 are
         dropped, larger ones must be selected first.
     sensor
         ``"x1"`` (bit sub) or ``"x5"`` (above the motor): plots ``<sensor>_peak_mean_g`` with

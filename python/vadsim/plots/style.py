@@ -44,9 +44,9 @@ REGIME_COLORS: dict[int, str] = {
     6: "#CC79A7",  # regular spring, intermittent impact face
     7: "#F0E442",  # spring impacts only
 }
-"""Colour of each scenario code (dissertation Table 4.2, :func:`vadsim.labels.scenario`; -1 is
-a failed run). Okabe-Ito colours, distinguishable with the common colour-vision deficiencies;
-the best regime (1, both surfaces regular) is the strong blue."""
+"""Colour of each scenario code (dissertation Table 4.2, :func:`vadsim.signals.labels.scenario`;
+-1 is a failed run). Okabe-Ito colours, distinguishable with the common colour-vision
+deficiencies; the best regime (1, both surfaces regular) is the strong blue."""
 
 SURFACE_COLORS: dict[str, str] = {
     "spring": "#1a1a1a",
@@ -180,7 +180,7 @@ def regime_label(code: int) -> str:
     Parameters
     ----------
     code
-        Scenario code 0..7 (:func:`vadsim.labels.scenario`) or -1 for a failed run.
+        Scenario code 0..7 (:func:`vadsim.signals.labels.scenario`) or -1 for a failed run.
     """
     code = int(code)
     return "failed run" if code == -1 else f"{code}: {regime_name(code)}"
@@ -207,12 +207,12 @@ def regime_patches(codes: np.ndarray, alpha: float = 1.0) -> list[Patch]:
 
 def require_dataset(ds: Any, func: str) -> xr.Dataset:
     if not isinstance(ds, xr.Dataset):
-        raise ValueError(f"{func}: expected an xarray.Dataset from vadsim.sweep, got "
+        raise ValueError(f"{func}: expected an xarray.Dataset from vadsim.studies.sweep, got "
                          f"{type(ds).__name__}")
     if "flow_gpm" not in ds.dims:
         raise ValueError(
             f"{func}: the dataset has no 'flow_gpm' dimension (dims: {tuple(ds.dims)}); "
-            "pass a sweep from vadsim.sweep.sweep / flow_sweep"
+            "pass a sweep from vadsim.studies.sweep.sweep / flow_sweep"
         )
     return ds
 
@@ -395,9 +395,11 @@ def feature_label(key: str) -> str:
     return f"{key.replace('_', ' ')} (\u2013)"
 
 
-LABEL_CHARS = 60
+LABEL_CHARS = 120
 """Most characters of a name or id drawn into a figure title or axis label: a campaign's name
-may be long (its file allows 200 characters, an in-memory one any), a figure's title may not."""
+may be long (its file allows 200 characters, an in-memory one any), a figure's title may not.
+Titles wrap (:func:`fit_titles`), so a real campaign's long name (a test id, the rig and the
+well) stays whole over two lines; only a name past this is cut."""
 
 
 def short_label(text: object, limit: int = LABEL_CHARS) -> str:

@@ -28,7 +28,7 @@ from vadsim.plots.style import (
 )
 
 if TYPE_CHECKING:
-    from vadsim.model.simulate import SimulationResult
+    from vadsim.model.result import SimulationResult
 
 __all__ = ["time_traces"]
 

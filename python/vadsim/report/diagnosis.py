@@ -18,10 +18,11 @@ from typing import Any
 import pandas as pd
 
 from vadsim.fit.candidates import CANDIDATES
-from vadsim.fit.diagnose import Diagnosis, fmt_value
-from vadsim.fit.hypothesis import HypothesisFit
+from vadsim.fit.diagnosis import Diagnosis
+from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.plots.campaigns import heldout_features, mismatch_base
-from vadsim.report.render import check_format, render, write
+from vadsim.report.render import check_format, fmt_value, render, write
+from vadsim.report.text import verdict_text
 
 __all__ = ["write_diagnosis_report"]
 
@@ -123,7 +124,7 @@ def _verdict(diag: Diagnosis) -> dict[str, Any]:
                             "params": params})
     b = diag.none_fit.heldout_rms
     f = diag.final.heldout_rms
-    return {"kind": diag.verdict, "text": diag.verdict_text(), "effects": effects,
+    return {"kind": diag.verdict, "text": verdict_text(diag), "effects": effects,
             "unexplained": [{**u, "worst": ", ".join(f"{k} {v:+.1f}"
                                                      for k, v in u["worst"].items())}
                             for u in diag.unexplained],

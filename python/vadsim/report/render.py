@@ -18,11 +18,12 @@ import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 from jinja2 import Environment, PackageLoader, StrictUndefined
 from markupsafe import Markup
 
-__all__ = ["FORMATS", "check_format", "fmt_value", "render", "write"]
+__all__ = ["FORMATS", "TABLE_DIGITS", "check_format", "fmt_value", "render", "write"]
 
 FORMATS: tuple[str, ...] = ("md", "html")
 """The formats of a report: Markdown and HTML."""
@@ -37,10 +38,16 @@ def check_format(fmt: str) -> str:
     return fmt
 
 
-def fmt_value(v: Any) -> str:
-    """A table cell: floats with 3 significant digits (NaN empty), anything else as text."""
-    if isinstance(v, float):
-        return "" if math.isnan(v) else f"{v:.3g}"
+TABLE_DIGITS = 3
+"""Significant digits of a number in a report's table (a parameter value in text has 4)."""
+
+
+def fmt_value(v: Any, digits: int = 4) -> str:
+    """A number for text: floats with ``digits`` significant digits (NaN empty), anything
+    else as text. The one formatter of reports and summaries; tables use
+    :data:`TABLE_DIGITS`."""
+    if isinstance(v, (float, np.floating)):
+        return "" if math.isnan(v) else f"{float(v):.{digits}g}"
     return str(v)
 
 
@@ -50,7 +57,7 @@ def _cells(df: pd.DataFrame) -> pd.DataFrame:
     flat = df.reset_index() if named else df
     if named and df.index.name is None:
         flat = flat.rename(columns={"index": ""})
-    return flat.map(fmt_value)
+    return flat.map(lambda v: fmt_value(v, TABLE_DIGITS))
 
 
 _NUMBER = re.compile(r"^([-+]?(\d+\.?\d*|\.\d+)(e[-+]?\d+)?( %)?|nan|)$")

@@ -20,12 +20,46 @@ import pandas as pd
 
 from vadsim import plots
 from vadsim._version import __version__ as _version
-from vadsim.fit.validate import ValidationResult, findings
+from vadsim.fit.validate import ValidationResult
 from vadsim.report.render import check_format, render, write
 
-__all__ = ["write_validation_report"]
+__all__ = ["findings", "write_validation_report"]
 
 _DPI = 110
+
+
+def findings(result: ValidationResult, threshold: float = 1.0) -> list[str]:
+    """Plain-language statements of where the model matches and where it does not: for each
+    compared feature (through the sensor chain and at full resolution), the mean
+    standardised residual over the lower and the upper half of the campaign's flows."""
+    flows = pd.Series({ev.id: ev.flow_gpm for ev in result.campaign.events})
+    median = float(flows.median())
+    low = flows.index[flows <= median]
+    high = flows.index[flows > median]
+    out = []
+    for label, res in (("through the sensor chain", result.residuals),
+                       ("at full resolution", result.residuals_full)):
+        for key in res.columns:
+            col = res[key].dropna()
+            if col.empty:
+                continue
+            parts = []
+            for name, ids in ((f"flows <= {median:g} gal/min", low),
+                              (f"flows > {median:g} gal/min", high)):
+                z = col.reindex(ids).dropna()
+                if z.empty:
+                    continue
+                m = float(z.mean())
+                verdict = ("over-predicts" if m > threshold else
+                           "under-predicts" if m < -threshold else "matches")
+                parts.append(f"{verdict} at {name} (mean z {m:+.1f}, {len(z)} events)")
+            if parts:
+                out.append(f"{key} {label}: the model " + "; ".join(parts) + ".")
+    missing = result.not_compared()
+    for key, group in missing.groupby("feature", sort=False):
+        out.append(f"{key} could not be compared at {len(group)} event(s): "
+                   f"{group['reason'].iloc[0]}.")
+    return out
 
 
 def write_validation_report(result: ValidationResult, folder: str | os.PathLike[str],

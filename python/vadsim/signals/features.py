@@ -1,20 +1,22 @@
-"""Features of one event's acceleration signals, each with a spread from the recording itself.
+"""The :class:`Feature` record -- a value with a spread from the recording itself -- the floors of
+those spreads, features of a published summary, and tables of features.
 
-Why this module exists: a model run and a field recording are compared feature by feature --
-the dissertation's three (mean and dispersion of the 200 ms window peaks, impact frequency,
-impacts per cycle), the amplitude spectrum in frequency bands up to the Nyquist rate, and the
-ratio of the peaks at two sensors (x5 / x1). A difference between a simulated and a recorded
-feature means nothing without a yardstick, so every feature here is a :class:`Feature` that
-carries a spread estimated from the recording itself, and
-:func:`vadsim.compare.standardised_residual` divides by the *recording's* spread.
+Why this module exists: a model run and a field recording are compared feature by feature
+(:mod:`vadsim.signals.window_features`: peaks, impact rate, band RMS and peak ratio over
+200 ms windows; :mod:`vadsim.signals.fold_features`: the folded waveform, or quantiles where
+a record does not repeat). A difference between a simulated and a recorded feature means
+nothing without a yardstick, so every feature is a :class:`Feature` that carries a spread
+estimated from the recording itself, and :func:`vadsim.compare.standardised_residual` divides
+by the *recording's* spread.
 
 What the spread is, and why it is not a standard error
 ------------------------------------------------------
-Every feature is built from a per-window quantity (window peak, window rate of impacts, window
-band RMS, ...) over the fixed 200 ms windows of :func:`vadsim.labels.window_peaks`. Its spread
-is the across-window standard deviation of that quantity (``ddof=1``): how much the tool's
-response changes from one 200 ms stretch of steady operation to the next. It is deliberately
-*not* the standard error of the mean (that standard deviation divided by sqrt(n)):
+Every window feature (:mod:`vadsim.signals.window_features`) is built from a per-window
+quantity (window peak, window rate of impacts, window band RMS, ...) over the fixed 200 ms
+windows of :func:`vadsim.signals.labels.window_peaks`. Its spread is the across-window standard
+deviation of that quantity (``ddof=1``): how much the tool's response changes from one 200 ms
+stretch of steady operation to the next. It is deliberately *not* the standard error of the
+mean (that standard deviation divided by sqrt(n)):
 
 * the model is deterministic: its feature has no sampling noise to speak of, and the question
   is whether it lies within the recording's natural variability, not whether it hits the
@@ -26,8 +28,9 @@ response changes from one 200 ms stretch of steady operation to the next. It is 
 
 For the dispersion ``peak_std_g``, which has no per-window value, the spread is the
 one-window equivalent of its sampling standard deviation (``sqrt(n)`` times the standard
-error, by the delta method; see :func:`sensor_features`) -- the same scaling that turns the
-standard error of ``peak_mean_g`` back into the standard deviation of the window peaks.
+error, by the delta method; see :func:`vadsim.signals.window_features.sensor_features`) --
+the same scaling that turns the standard error of ``peak_mean_g`` back into the standard
+deviation of the window peaks.
 
 Floors
 ------
@@ -40,73 +43,30 @@ with ``REL_SPREAD_FLOOR = 2 %`` (about the calibration accuracy of a field accel
 closer than a lumped model can be expected to match anyway) and an absolute floor per kind of
 feature (:data:`SPREAD_FLOORS`): 0.5 g for accelerations, 0.5 Hz for frequencies, 0.02 for
 dimensionless ratios and impacts per cycle. The kind is read off the key's suffix: ``_g``,
-``_hz``, anything else.
-
-Clipping
---------
-A window that holds a clipped sample (RECORDINGS.md: samples at the sensor rails are flagged,
-never trusted) has a peak that is only a lower bound; such windows are left out of the peak
-features, and the fraction left out is reported as ``clipped_windows``. Dropping the loudest
-windows biases the peak mean low, so a large ``clipped_windows`` says the peak features are
-not to be trusted much. If every window is clipped the peak features are NaN with ``n = 0``
-and a :class:`RuntimeWarning` -- never a silent number. The impact rate and the band RMS use all
-windows: a clipped spike is still one peak (``find_peaks`` takes a plateau as one), and the band
-RMS is biased low by clipping but leaving windows out would bias it further.
+``_hz``, anything else (:func:`spread_kind`).
 """
 
 from __future__ import annotations
 
-import functools
 import math
-import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
 
 import numpy as np
-import numpy.typing as npt
 import pandas as pd
-from scipy.signal import find_peaks, get_window
 
-from vadsim._checks import finite_1d, finite_positive, number
-from vadsim.signals.labels import (
-    IMPACT_HEIGHT_FRAC,
-    IMPACT_MIN_DISTANCE_S,
-    PEAK_WINDOW_S,
-    window_bounds,
-)
+from vadsim._checks import finite_positive, number
 
 __all__ = [
-    "DEFAULT_BANDS",
-    "DEFAULT_BANDS_RATE_HZ",
     "REL_SPREAD_FLOOR",
     "SPREAD_FLOORS",
     "SUMMARY_REL_SPREAD",
     "Feature",
-    "band_edges_for",
-    "band_key",
-    "event_features",
     "features_table",
-    "sensor_features",
+    "spread_kind",
     "summary_features",
 ]
-
-DEFAULT_BANDS_RATE_HZ: float = 1024.0
-"""Sensor rate the :data:`DEFAULT_BANDS` are laid out for, Hz (RECORDINGS.md)."""
-
-DEFAULT_BANDS: tuple[tuple[float, float], ...] = (
-    (0.0, 50.0),
-    (50.0, 100.0),
-    (100.0, 200.0),
-    (200.0, 350.0),
-    (350.0, 512.0),
-)
-"""Frequency bands, Hz, of the amplitude spectrum for a 1024 Hz sensor (Nyquist 512 Hz).
-
-The first two bands separate the excitation (21-69 Hz for both tools) from its first
-harmonics; the wider bands above hold the impact ringing, up to the 400 Hz anti-alias corner of
-the field sensors and the Nyquist rate. :func:`band_edges_for` adapts them to other rates.
-"""
 
 REL_SPREAD_FLOOR: float = 0.02
 """Smallest spread as a fraction of ``|value|`` (see the module docstring)."""
@@ -118,19 +78,13 @@ SPREAD_FLOORS: Mapping[str, float] = MappingProxyType({"g": 0.5, "hz": 0.5, "rat
 * 0.5 g: a few LSB of a +-250 g, 12-bit field accelerometer (0.12 g per LSB) plus its noise;
   a simulated feature closer than that to the recording cannot be told apart from it.
 * 0.5 Hz: the resolution of a count of impacts over a couple of seconds (1 / duration).
-* 0.02: :data:`vadsim.labels.Z_EQ_TOL`, the tolerance within which impacts per cycle count as
-  equal.
+* 0.02: :data:`vadsim.signals.labels.Z_EQ_TOL`, the tolerance within which impacts per cycle
+  count as equal.
 """
 
 SUMMARY_REL_SPREAD: float = 0.1
 """Default spread of a summary-only feature, as a fraction of its value (see
 :func:`summary_features`)."""
-
-_MIN_WINDOWS: int = 2
-# A standard deviation across windows needs at least two of them.
-
-_MIN_WINDOW_SAMPLES: int = 4
-# A window of fewer samples has no spectrum worth the name (and no Hann window to speak of).
 
 
 # --------------------------------------------------------------------------------------------
@@ -172,509 +126,28 @@ class Feature:
         object.__setattr__(self, "n", int(self.n))
 
 
-def _kind(key: str) -> str:
+def spread_kind(key: str) -> str:
+    """The kind of feature ``key`` names, which decides its absolute spread floor.
+
+    A feature's unit is written in its key's suffix, and the floor belongs to the unit
+    (:data:`SPREAD_FLOORS`): a window feature and a summary feature of the same key get the
+    same floor.
+
+    Parameters
+    ----------
+    key : str
+        Feature key, e.g. ``x1_peak_mean_g``.
+
+    Returns
+    -------
+    str
+        ``"g"`` for a key ending ``_g``, ``"hz"`` for ``_hz``, ``"ratio"`` for anything else.
+    """
     if key.endswith("_g"):
         return "g"
     if key.endswith("_hz"):
         return "hz"
     return "ratio"
-
-
-def _floored(raw: float, value: float, kind: str) -> float:
-    if not (math.isfinite(value) and math.isfinite(raw)):
-        return math.nan
-    return max(raw, REL_SPREAD_FLOOR * abs(value), SPREAD_FLOORS[kind])
-
-
-def _feature(key: str, value: float, per_window: np.ndarray, raw: float | None = None) -> Feature:
-    """Feature ``key`` with the floored across-window std of ``per_window`` (or ``raw``)."""
-    n = int(per_window.size)
-    if raw is None:
-        raw = float(np.std(per_window, ddof=1)) if n >= _MIN_WINDOWS else math.nan
-    return Feature(float(value), _floored(raw, float(value), _kind(key)), n)
-
-
-_NAN_FEATURE = Feature(math.nan, math.nan, 0)
-
-
-# --------------------------------------------------------------------------------------------
-# Bands
-# --------------------------------------------------------------------------------------------
-
-
-def _fmt_edge(x: float) -> str:
-    return str(int(x)) if float(x).is_integer() else f"{x:g}".replace(".", "p")
-
-
-def band_key(lo: float, hi: float) -> str:
-    """Feature key of the band ``[lo, hi)`` Hz: ``band_<lo>_<hi>_g`` (``.`` written ``p``)."""
-    return f"band_{_fmt_edge(lo)}_{_fmt_edge(hi)}_g"
-
-
-def _check_bands(bands: object) -> list[tuple[float, float]]:
-    try:
-        pairs = [tuple(b) for b in bands]  # type: ignore[attr-defined]
-    except TypeError:
-        raise ValueError(f"bands must be a sequence of (lo, hi) pairs, got {bands!r}") from None
-    if not pairs:
-        raise ValueError("bands must hold at least one (lo, hi) pair")
-    out = []
-    for i, pair in enumerate(pairs):
-        if len(pair) != 2:
-            raise ValueError(f"bands[{i}] must be a (lo, hi) pair, got {pair!r}")
-        lo, hi = number(f"bands[{i}][0]", pair[0]), number(f"bands[{i}][1]", pair[1])
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo < 0.0 or hi <= lo:
-            raise ValueError(f"bands[{i}] must satisfy 0 <= lo < hi (finite), got {pair!r}")
-        out.append((lo, hi))
-    return out
-
-
-def band_edges_for(
-    rate_hz: float, bands: Sequence[tuple[float, float]] | None = None
-) -> tuple[tuple[float, float], ...]:
-    """Frequency bands, Hz, usable for a signal sampled at ``rate_hz``.
-
-    Bands that start at or above the Nyquist rate ``rate_hz / 2`` are dropped; a band that
-    straddles it is cut at the Nyquist rate (so its key, :func:`band_key`, names the cut edge).
-    With the default bands and a rate above 1024 Hz, one more band from 512 Hz to the Nyquist
-    rate is appended, so that the bands always cover the spectrum up to the Nyquist rate (a
-    full-resolution simulation then has a band a 1024 Hz recording lacks; residuals simply
-    leave it out).
-
-    Parameters
-    ----------
-    rate_hz : float
-        Sampling rate, Hz.
-    bands : sequence of (lo, hi), optional
-        Bands to adapt, Hz; default :data:`DEFAULT_BANDS`.
-
-    Returns
-    -------
-    tuple of (lo, hi)
-        The usable bands, in the given order.
-
-    Raises
-    ------
-    ValueError
-        If ``rate_hz`` is not a finite number > 0, a band is not ``0 <= lo < hi``, or no band
-        is left below the Nyquist rate.
-    """
-    rate_hz = finite_positive("rate_hz", rate_hz)
-    nyquist = rate_hz / 2.0
-    default = bands is None
-    pairs = _check_bands(DEFAULT_BANDS if bands is None else bands)
-    out = [(lo, min(hi, nyquist)) for lo, hi in pairs if lo < nyquist]
-    top = max(hi for _, hi in pairs)
-    if default and nyquist > top:
-        out.append((top, nyquist))
-    if not out:
-        raise ValueError(f"bands: no band starts below the Nyquist rate {nyquist:g} Hz")
-    return tuple(out)
-
-
-def _band_rms(
-    a: np.ndarray, rate_hz: float, bounds: np.ndarray, bands: Sequence[tuple[float, float]]
-) -> np.ndarray:
-    """RMS (g) of each window in each band, shape (n_windows, n_bands).
-
-    Per window: remove the Hann-weighted mean ``sum(w x) / sum(w)`` (an offset such as a
-    sensor bias or gravity is no vibration; the plain mean would leave an offset of about
-    A / (2 pi cycles) for a tone of A that is not a whole number of cycles, and the Hann window
-    would turn it into a spurious 0-10 Hz line of about 1 % of A, whereas the weighted mean of
-    such a tone is ~1e-4 of A); Hann window (periodic); one-sided periodogram with "density"
-    scaling (``scipy.signal.periodogram``); band power = sum of the PSD over the bins in the
-    band times the bin width ``rate / N``; RMS = sqrt(power). The density scaling divides by
-    ``sum(w**2)`` (the window's equivalent noise bandwidth), so by Parseval a sine of amplitude
-    A whose Hann main lobe (+-2 bins, i.e. +-10 Hz for 200 ms windows) lies inside a band gives
-    power A^2/2 there, i.e. A / sqrt(2) RMS, whether or not it falls on a bin. Bins count in
-    ``[lo, hi)``; a band ending at the Nyquist rate includes the Nyquist bin.
-    """
-    lengths = np.diff(bounds)
-    out = np.empty((lengths.size, len(bands)))
-    for length in np.unique(lengths):
-        rows = np.flatnonzero(lengths == length)
-        n = int(length)
-        if rows.size > 1 and np.all(np.diff(bounds[rows]) == n):  # back to back: a view
-            start = int(bounds[rows[0]])
-            segments = a[start : start + rows.size * n].reshape(rows.size, n)
-        else:
-            segments = np.stack([a[bounds[i] : bounds[i] + n] for i in rows])
-        w, w_mean, scale, bins_of = _band_plan(n, float(rate_hz), tuple(bands))
-        offset = segments @ w_mean
-        # scipy.signal.periodogram's one-sided density, without its per-call overhead
-        # (it was a tenth of a diagnosis' feature time)
-        spec = np.fft.rfft((segments - offset[:, np.newaxis]) * w, axis=-1)
-        psd = (spec.real ** 2 + spec.imag ** 2) * scale
-        out[rows] = np.sqrt(psd @ bins_of)
-    return out
-
-
-@functools.lru_cache(maxsize=64)
-def _band_plan(length: int, rate_hz: float, bands: tuple[tuple[float, float], ...]
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """What :func:`_band_rms` needs for windows of ``length`` samples, made once: the Hann
-    window, its weights for the weighted mean, each bin's density scale (one-sided, times
-    the bin width) and the bins-by-bands matrix whose product with a periodogram sums each
-    band. ValueError for a band that holds no bin."""
-    nyquist = rate_hz / 2.0
-    w = get_window("hann", length)
-    scale = np.full(length // 2 + 1, 1.0 / (rate_hz * np.sum(w * w)))
-    scale[1 : scale.size - (1 if length % 2 == 0 else 0)] *= 2.0
-    scale *= rate_hz / length
-    freqs = np.fft.rfftfreq(length, 1.0 / rate_hz)
-    bins_of = np.zeros((freqs.size, len(bands)))
-    for j, (lo, hi) in enumerate(bands):
-        mask = (freqs >= lo) & ((freqs < hi) | ((hi >= nyquist) & (freqs <= hi)))
-        if not np.any(mask):
-            raise ValueError(
-                f"bands: band ({lo:g}, {hi:g}) Hz holds no frequency bin of a "
-                f"{length}-sample window (bin width {rate_hz / length:.3g} Hz); widen it or "
-                "the window"
-            )
-        bins_of[mask, j] = 1.0
-    for arr in (w, scale, bins_of):
-        arr.flags.writeable = False
-    return w, w / np.sum(w), scale, bins_of
-
-
-# --------------------------------------------------------------------------------------------
-# One sensor
-# --------------------------------------------------------------------------------------------
-
-
-def _check_clipped(name: str, clipped: npt.ArrayLike | None, size: int) -> np.ndarray:
-    if clipped is None:
-        return np.zeros(size, dtype=bool)
-    arr = np.asarray(clipped)
-    if arr.ndim != 1 or arr.size != size:
-        raise ValueError(f"{name} must be a 1-D mask of {size} samples, got shape {arr.shape}")
-    if arr.dtype != bool:
-        if not np.issubdtype(arr.dtype, np.number) or not np.all((arr == 0) | (arr == 1)):
-            raise ValueError(f"{name} must be a boolean mask (or 0/1), got dtype {arr.dtype}")
-        arr = arr.astype(bool)
-    return arr
-
-
-def _impact_peaks(a_abs: np.ndarray, rate_hz: float, peaks_all: np.ndarray) -> np.ndarray:
-    # The rule of vadsim.labels.impact_frequency (the tests check the two agree).
-    reference = float(np.median(peaks_all))
-    if reference == 0.0:
-        return np.zeros(0, dtype=np.intp)
-    distance = max(1, round(IMPACT_MIN_DISTANCE_S * rate_hz))
-    idx, _ = find_peaks(a_abs, height=IMPACT_HEIGHT_FRAC * reference, distance=distance)
-    return idx
-
-
-def _window_rates(idx: np.ndarray, rate_hz: float, bounds: np.ndarray) -> np.ndarray:
-    """Impact rate of each window, Hz, without the quantisation of a whole-peak count.
-
-    A window of 200 ms holds a whole number of peaks, so a count per window jumps by 5 Hz: a
-    perfectly periodic 21.3 Hz train gives windows of 20 and 25 Hz and a spread of 2.2 Hz that
-    is all quantisation. Instead, the local rate at sample j is the reciprocal of the interval
-    between the two peaks around j, and a window's rate is the mean of the local rate over its
-    samples (a count in which the intervals cut by the window edges count in part). A periodic
-    train gives its frequency in every window; an irregular one shows its irregularity. Before
-    the first and after the last peak the interval is taken as the first (last) one, or the
-    time elapsed since (until) that peak if longer, so that a signal falling silent shows a
-    falling rate. With fewer than two peaks, plain counts per window are used.
-    """
-    lengths = np.diff(bounds)
-    if idx.size < 2:
-        counts = np.histogram(idx, bins=bounds)[0] if idx.size else np.zeros(lengths.size)
-        return counts * rate_hz / lengths
-    j = np.arange(bounds[-1])
-    gaps = np.diff(idx).astype(float)
-    k = np.clip(np.searchsorted(idx, j, side="right") - 1, 0, gaps.size - 1)
-    interval = gaps[k]
-    before, after = j < idx[0], j > idx[-1]
-    interval[before] = np.maximum(gaps[0], idx[0] - j[before])
-    interval[after] = np.maximum(gaps[-1], j[after] - idx[-1])
-    local = rate_hz / interval
-    return np.add.reduceat(local, bounds[:-1]) / lengths
-
-
-@dataclass(frozen=True)
-class _SensorResult:
-    features: dict[str, Feature]
-    peaks: np.ndarray  # window peaks of |a|, g, every full window
-    usable: np.ndarray  # windows without a clipped sample
-
-
-def _peak_features(name: str, p: np.ndarray, n_windows: int) -> dict[str, Feature]:
-    """Mean and dispersion of the window peaks ``p`` (clipped windows already left out)."""
-    out: dict[str, Feature] = {}
-    if p.size == 0:
-        warnings.warn(
-            f"{name}: all {n_windows} windows hold clipped samples; the peak features are NaN",
-            RuntimeWarning,
-            stacklevel=4,
-        )
-        out["peak_mean_g"] = _NAN_FEATURE
-        out["peak_std_g"] = _NAN_FEATURE
-    else:
-        if p.size < _MIN_WINDOWS:
-            warnings.warn(
-                f"{name}: only {p.size} of {n_windows} windows free of clipping; the spreads of "
-                "the peak features are NaN",
-                RuntimeWarning,
-                stacklevel=4,
-            )
-        mean, std = float(np.mean(p)), float(np.std(p))
-        out["peak_mean_g"] = _feature("peak_mean_g", mean, p)
-        # Delta method: std = sqrt(mean of d), d = squared deviation of a window peak, so
-        # sd(std estimate) = sd(d) / (2 std sqrt(n)); times sqrt(n) it is the one-window
-        # equivalent, as the std of the peaks is for their mean.
-        if p.size < _MIN_WINDOWS:
-            raw = math.nan
-        elif std == 0.0:
-            raw = 0.0
-        else:
-            raw = float(np.std((p - mean) ** 2, ddof=1)) / (2.0 * std)
-        out["peak_std_g"] = _feature("peak_std_g", std, p, raw)
-    return out
-
-
-def _sensor(
-    name: str,
-    a_g: npt.ArrayLike,
-    rate_hz: float,
-    f_exc_hz: float | None,
-    window_s: float,
-    bands: Sequence[tuple[float, float]] | None,
-    clipped: npt.ArrayLike | None,
-    arg: str = "a_g",
-    clipped_arg: str = "clipped",
-) -> _SensorResult:
-    a = finite_1d(arg, a_g)
-    rate_hz = finite_positive("rate_hz", rate_hz)
-    window_s = finite_positive("window_s", window_s)
-    if f_exc_hz is not None:
-        f_exc_hz = finite_positive("f_exc_hz", f_exc_hz)
-    band_list = band_edges_for(rate_hz, bands)
-    clip = _check_clipped(clipped_arg, clipped, a.size)
-
-    bounds = window_bounds(a.size, rate_hz, window_s)
-    n_windows = bounds.size - 1
-    if n_windows < _MIN_WINDOWS:
-        raise ValueError(
-            f"{arg}: {a.size} samples at {rate_hz:g} Hz hold {max(n_windows, 0)} full window(s) "
-            f"of {window_s:g} s; need at least {_MIN_WINDOWS} for a spread"
-        )
-    if np.min(np.diff(bounds)) < _MIN_WINDOW_SAMPLES:
-        raise ValueError(
-            f"window_s: {window_s:g} s at {rate_hz:g} Hz holds fewer than "
-            f"{_MIN_WINDOW_SAMPLES} samples"
-        )
-    a_abs = np.abs(a)
-    starts = bounds[:-1]
-    peaks = np.maximum.reduceat(a_abs[: bounds[-1]], starts)
-    usable = ~np.logical_or.reduceat(clip[: bounds[-1]], starts)
-    out: dict[str, Feature] = {}
-
-    out.update(_peak_features(name, peaks[usable], n_windows))
-    excluded = (~usable).astype(float)
-    out["clipped_windows"] = _feature("clipped_windows", float(np.mean(excluded)), excluded)
-
-    # Impact rate: value as vadsim.labels.impact_frequency, spread from unquantised window rates.
-    idx = _impact_peaks(a_abs, rate_hz, peaks)
-    impact_hz = idx.size * rate_hz / a.size
-    rates = _window_rates(idx, rate_hz, bounds)
-    out["impact_hz"] = _feature("impact_hz", impact_hz, rates)
-    if f_exc_hz is not None:
-        out["impacts_per_cycle"] = _feature(
-            "impacts_per_cycle", impact_hz / f_exc_hz, rates / f_exc_hz
-        )
-
-    # Band RMS: every band's mean and spread in one reduction each (as _feature forms them).
-    rms = _band_rms(a, rate_hz, bounds, band_list)
-    means = rms.mean(axis=0)
-    sds = (rms.std(axis=0, ddof=1) if n_windows >= _MIN_WINDOWS
-           else np.full(len(band_list), math.nan))
-    for j, (lo, hi) in enumerate(band_list):
-        value = float(means[j])
-        out[band_key(lo, hi)] = Feature(value, _floored(float(sds[j]), value, "g"), n_windows)
-    return _SensorResult(out, peaks, usable)
-
-
-def sensor_features(
-    a_g: npt.ArrayLike,
-    rate_hz: float,
-    f_exc_hz: float | None = None,
-    window_s: float = PEAK_WINDOW_S,
-    bands: Sequence[tuple[float, float]] | None = None,
-    clipped: npt.ArrayLike | None = None,
-) -> dict[str, Feature]:
-    """Features of one sensor's acceleration, each with its across-window spread.
-
-    The signal is cut into the full windows of :func:`vadsim.labels.window_peaks` (trailing
-    partial window dropped). Keys:
-
-    ``peak_mean_g``
-        Mean of the window peaks of ``|a|``, g (:func:`vadsim.labels.peak_stats`); spread = the
-        standard deviation (``ddof=1``) of the window peaks. Windows with a clipped sample are
-        left out; ``n`` = windows used.
-    ``peak_std_g``
-        Standard deviation of the same window peaks (``ddof=0``, as
-        :func:`vadsim.labels.peak_stats`), g. Spread: with ``d_i = (p_i - mean)**2`` the
-        squared deviations, ``std(d, ddof=1) / (2 * peak_std)`` -- the delta-method sampling
-        standard deviation of a standard deviation (no normality assumed) times sqrt(n), i.e.
-        for one window, consistent with ``peak_mean_g`` (about ``peak_std / sqrt(2)`` for
-        normally distributed peaks). Equal peaks give 0 before the floor.
-    ``clipped_windows``
-        Fraction of windows left out of the peak features for holding a clipped sample;
-        ``n`` = all windows, so ``round(value * n)`` windows were left out. Spread = std of
-        the 0/1 per-window indicator.
-    ``impact_hz``
-        Major acceleration peaks per second, by the rule of
-        :func:`vadsim.labels.impact_frequency` (same value). Spread: the std of per-window
-        impact rates that count the intervals cut by a window edge in part, so that a periodic
-        train does not show the 5 Hz quantisation of whole counts in 200 ms (details in
-        ``_window_rates``). ``n`` = all windows.
-    ``impacts_per_cycle``
-        Only if ``f_exc_hz`` is given: ``impact_hz / f_exc_hz``, spread likewise divided.
-        (MODEL.md's Z counts contact onsets per surface in a simulation; this is its
-        counterpart from an acceleration, where the surfaces cannot be told apart.)
-    ``band_<lo>_<hi>_g``
-        RMS of the signal in the band ``[lo, hi)`` Hz, g, per window: Hann-weighted window
-        mean removed (offsets are not vibration), Hann window, the periodogram
-        with density scaling summed over the band times the bin width, so that a sine of
-        amplitude A inside the band gives A / sqrt(2) (for 200 ms windows the band should
-        extend 10 Hz beyond the tone on each side, the Hann main lobe). Value = mean over
-        all windows, spread = their std.
-
-    Every spread is floored (module docstring): ``max(raw, 2 % of |value|, 0.5 g / 0.5 Hz /
-    0.02)``.
-
-    Parameters
-    ----------
-    a_g : array_like, shape (n,)
-        Uniformly sampled acceleration, g; at least two full windows.
-    rate_hz : float
-        Sampling rate, Hz.
-    f_exc_hz : float, optional
-        Excitation frequency, Hz; adds ``impacts_per_cycle``.
-    window_s : float, optional
-        Window length, s; default 0.2 (dissertation section 3.2).
-    bands : sequence of (lo, hi), optional
-        Frequency bands, Hz; default :data:`DEFAULT_BANDS`. Adapted to the Nyquist rate by
-        :func:`band_edges_for`.
-    clipped : array_like of bool, shape (n,), optional
-        True at samples at the sensor rails (e.g. from :func:`vadsim.sensor.sensor_chain` or
-        the recording's flags).
-
-    Returns
-    -------
-    dict of str to Feature
-        In the order listed above.
-
-    Raises
-    ------
-    ValueError
-        Naming the argument: a non-finite or non-1-D ``a_g``, a rate, frequency or window that
-        is not a finite number > 0, fewer than two full windows, a window of fewer than four
-        samples, a malformed band or one without a frequency bin, a ``clipped`` mask of the
-        wrong length or type.
-
-    Warns
-    -----
-    RuntimeWarning
-        If fewer than two windows are free of clipping (spreads NaN); if none is, the peak
-        features are ``Feature(nan, nan, 0)``.
-    """
-    return _sensor("a_g", a_g, rate_hz, f_exc_hz, window_s, bands, clipped).features
-
-
-# --------------------------------------------------------------------------------------------
-# One event
-# --------------------------------------------------------------------------------------------
-
-
-def event_features(
-    signals: Mapping[str, npt.ArrayLike],
-    rate_hz: float,
-    f_exc_hz: float | None = None,
-    clipped: Mapping[str, npt.ArrayLike] | None = None,
-    *,
-    window_s: float = PEAK_WINDOW_S,
-    bands: Sequence[tuple[float, float]] | None = None,
-) -> dict[str, Feature]:
-    """Features of every sensor of one event, keys prefixed ``<sensor>_``, plus the x5/x1 ratio.
-
-    Each sensor goes through :func:`sensor_features` (``x1_peak_mean_g``,
-    ``x5_band_50_100_g``, ...). When both ``x1`` and ``x5`` are present, ``x5_x1_peak_ratio``
-    is added: the mean x5 window peak over the mean x1 window peak, both over the windows free
-    of clipping in *both* sensors (so that the two means cover the same time); spread = std of
-    the per-window ratios ``p5_i / p1_i`` over those windows (windows with ``p1_i = 0`` left
-    out), floored at ``max(2 % of the value, 0.02)``. NaN with ``n = 0`` if no window is usable.
-
-    Parameters
-    ----------
-    signals : mapping of str to array_like
-        Sensor name (``x1``, ``x5``, ...) to its acceleration, g, all of one length and rate.
-    rate_hz : float
-        Sampling rate, Hz.
-    f_exc_hz : float, optional
-        Excitation frequency, Hz; adds ``<sensor>_impacts_per_cycle``.
-    clipped : mapping of str to array_like of bool, optional
-        Clipped-sample masks of some or all sensors.
-    window_s, bands
-        As :func:`sensor_features`.
-
-    Returns
-    -------
-    dict of str to Feature
-
-    Raises
-    ------
-    ValueError
-        As :func:`sensor_features`, naming ``signals[<sensor>]`` or ``clipped[<sensor>]``; also
-        for no signals, a non-string sensor name, signals of different lengths or a mask for a
-        sensor without a signal.
-    """
-    if not isinstance(signals, Mapping) or not signals:
-        raise ValueError(f"signals must be a non-empty mapping of sensor to array, got {signals!r}")
-    clipped = {} if clipped is None else clipped
-    if not isinstance(clipped, Mapping):
-        raise ValueError(f"clipped must be a mapping of sensor to mask, got {clipped!r}")
-    for name in signals:
-        if not isinstance(name, str) or not name:
-            raise ValueError(f"signals: sensor names must be non-empty strings, got {name!r}")
-    extra = [k for k in clipped if k not in signals]
-    if extra:
-        raise ValueError(f"clipped[{extra[0]!r}] has no signal in signals ({list(signals)})")
-    sizes = {name: np.size(sig) for name, sig in signals.items()}
-    if len(set(sizes.values())) > 1:
-        raise ValueError(f"signals must all have the same length, got {sizes}")
-
-    out: dict[str, Feature] = {}
-    results: dict[str, _SensorResult] = {}
-    for name, sig in signals.items():
-        res = _sensor(
-            name,
-            sig,
-            rate_hz,
-            f_exc_hz,
-            window_s,
-            bands,
-            clipped.get(name),
-            arg=f"signals[{name!r}]",
-            clipped_arg=f"clipped[{name!r}]",
-        )
-        results[name] = res
-        out.update({f"{name}_{key}": f for key, f in res.features.items()})
-
-    if "x1" in results and "x5" in results:
-        r1, r5 = results["x1"], results["x5"]
-        both = r1.usable & r5.usable
-        p1, p5 = r1.peaks[both], r5.peaks[both]
-        if p1.size == 0 or np.mean(p1) == 0.0:
-            out["x5_x1_peak_ratio"] = _NAN_FEATURE
-        else:
-            value = float(np.mean(p5) / np.mean(p1))
-            ratios = p5[p1 > 0.0] / p1[p1 > 0.0]
-            f = _feature("x5_x1_peak_ratio", value, ratios)
-            out["x5_x1_peak_ratio"] = Feature(f.value, f.spread, int(p1.size))
-    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -705,7 +178,7 @@ def summary_features(
     ----------
     values : mapping of str to float
         Feature key (``<sensor>_peak_mean_g``, ``<sensor>_peak_std_g``, ``<sensor>_impact_hz``,
-        or any key of :func:`event_features`) to its finite value.
+        or any key of :func:`vadsim.signals.window_features.event_features`) to its finite value.
     rel_spread : float, optional
         Spread as a fraction of ``|value|``, > 0; default 0.1.
     floors : mapping of str to float, optional
@@ -740,7 +213,7 @@ def summary_features(
         v = number(f"values[{key!r}]", raw)
         if not math.isfinite(v):
             raise ValueError(f"values[{key!r}] must be finite, got {v!r}")
-        out[key] = Feature(v, max(rel_spread * abs(v), fl[_kind(key)]), 0)
+        out[key] = Feature(v, max(rel_spread * abs(v), fl[spread_kind(key)]), 0)
     return out
 
 
@@ -775,7 +248,8 @@ def features_table(features: Mapping[str, Mapping[str, Feature]]) -> pd.DataFram
     Parameters
     ----------
     features : mapping of str to mapping of str to Feature
-        Event id to its features (e.g. :func:`event_features` or :func:`summary_features`).
+        Event id to its features (e.g.
+        :func:`vadsim.signals.window_features.event_features` or :func:`summary_features`).
 
     Returns
     -------

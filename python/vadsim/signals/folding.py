@@ -105,7 +105,7 @@ __all__ = [
 FOLD_BINS: int = 240
 """Bins per excitation cycle: 0.2 ms at 21 Hz, 0.06 ms at 69 Hz, several per 1 ms spike, and
 ~34 samples per bin from 8 s at 1024 Hz (0.05 g of 0.3 g noise left in a bin mean). A
-multiple of the 24 coarse bins of :mod:`vadsim.signals.fold_features`."""
+multiple of the 24 coarse bins of :mod:`vadsim.signals.fold_waveform`."""
 
 MAX_PERIOD: int = 4
 """Longest period, in excitation cycles, a fold is tried with."""
@@ -407,6 +407,9 @@ def fold(
 ) -> Fold:
     """Fold a uniformly sampled record by excitation phase (module docstring).
 
+    Why so many parameters: a fold is one record plus how it is folded (frequency, search span,
+    period, bins, blocks); each has a default that suits a 1024 Hz record.
+
     Parameters
     ----------
     a : array_like, shape (n,)
@@ -532,7 +535,7 @@ def fold_sums(t: npt.ArrayLike, signals: npt.ArrayLike, f_hz: float, period: int
 
     The raw material of :func:`fold_fine` without its statistics, for a simulation whose
     sensors share the solver's grid and which is folded with several periods and alignments
-    (:func:`vadsim.signals.fold_features.model_fold_features`): on 10^5-10^6 fine samples the
+    (:func:`vadsim.signals.model_folds.model_fold_features`): on 10^5-10^6 fine samples the
     phase of each sample is the expensive part, so it is computed once.
 
     Parameters

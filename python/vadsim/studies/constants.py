@@ -32,6 +32,7 @@ import pandas as pd
 import xarray as xr
 
 from vadsim.data import field_events
+from vadsim.model.defaults import DEFAULTS
 from vadsim.model.presets import get_preset
 from vadsim.studies.design import PUBLISHED, RECOMMENDED, STUDIES, operating_range
 from vadsim.studies.sweep import sweep
@@ -126,12 +127,15 @@ def scan_constants(
     flows: Sequence[float] | np.ndarray | None = None,
     design_every: int = 2,
     designs: bool = True,
-    cycles: float = 400,
-    analyse_cycles: float = 200,
+    cycles: float = DEFAULTS.cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
     workers: int | None = None,
     progress: bool = True,
 ) -> ConstantScan:
     """Sweep flow over a grid of (theta0, gap ratio) and score every published target.
+
+    Why so many parameters: the scan is the constants' ranges, the published numbers it is held
+    against and the run settings of each point; keyword-only with defaults.
 
     Parameters
     ----------
@@ -155,7 +159,7 @@ def scan_constants(
     cycles, analyse_cycles
         Run length and analysed window (excitation cycles).
     workers, progress
-        As :func:`vadsim.sweep`.
+        As :func:`vadsim.studies.sweep`.
     """
     pr = get_preset(preset)
     th = np.linspace(0.0, math.pi, 24, endpoint=False) if theta0 is None else np.asarray(

@@ -169,7 +169,7 @@ def one_at_a_time(
     gap_via
         Which length realises the gap change (``"spring"``, ``"anvil"``, ``"housing"``).
     sweep_kwargs
-        Passed to :func:`vadsim.sweep.sweep` (workers, scheduler, store, cycles...).
+        Passed to :func:`vadsim.studies.sweep.sweep` (workers, scheduler, store, cycles...).
     """
     if study not in STUDIES:
         raise ValueError(f"unknown study {study!r}: choose one of {', '.join(STUDIES)}")
@@ -281,6 +281,9 @@ def optimise(
     callback: Callable[[int, float, dict[str, float]], None] | None = None,
 ) -> OptimisationResult:
     """Maximise J* and the operating range together over kS, gap ratio and Fo.
+
+    Why so many parameters: the optimisation is a design space (parameters, bounds), an
+    objective over flows and the run settings of each evaluation; each with a default.
 
     The score of a design is ``j_max / j_max0 + weight_range * width / width0`` (both relative
     to the preset), evaluated on a flow sweep (coarser and shorter than the dissertation's, so

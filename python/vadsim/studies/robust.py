@@ -177,6 +177,9 @@ def robust_optimise(preset: str = "7in-cde", n_sample: int = 5,
     ``j_max / j_max0 + weight_range * (width + dq) / (width0 + dq)`` (each relative to the
     original design at the same constants; dq the flow step).
 
+    Why so many parameters: a robust design adds the region of the uncertain constants and its
+    sampling to :func:`vadsim.studies.design.optimise`'s parameters; each with a default.
+
     Differential evolution within the published ranges, on a coarse sweep (25 gal/min, 200
     cycles), as :func:`vadsim.studies.design.optimise`. Returns the best design and every
     evaluated one.

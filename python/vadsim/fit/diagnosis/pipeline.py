@@ -1,0 +1,234 @@
+"""The diagnosis from a campaign to a verdict, in the order it runs.
+
+1. calibrate "none": the base model with the nuisance constants
+   (:func:`~vadsim.fit.diagnosis.hypotheses.calibrate_base`);
+2. locate where it misses (:func:`~vadsim.fit.diagnosis.evidence.located`);
+3. select effects (:func:`~vadsim.fit.diagnosis.selection.forward_selection`) and
+   review them (:func:`~vadsim.fit.diagnosis.selection.review`);
+4. conclude (:func:`~vadsim.fit.diagnosis.policy.verdict`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+from vadsim._progress import ProgressArg, bar, reporter
+from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
+from vadsim.compare import CampaignEvaluator
+from vadsim.fit.candidates import keys_for
+from vadsim.fit.diagnosis import selection
+from vadsim.fit.diagnosis.evidence import (
+    PROBE_EVENTS,
+    Context,
+    located,
+    make_folds,
+    probe_subset,
+    rms_of,
+)
+from vadsim.fit.diagnosis.hypotheses import calibrate_base
+from vadsim.fit.diagnosis.parallel import bar_tick, on_bar
+from vadsim.fit.diagnosis.policy import Policy, none_model, unexplained, verdict
+from vadsim.fit.diagnosis.result import Diagnosis, jsonable
+from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
+from vadsim.fit.hypothesis_fit import fit_hypothesis
+from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
+from vadsim.model.cache import ResultCache, default_cache
+from vadsim.model.presets import Preset
+from vadsim.model.settings import DEFAULTS, RunSettings
+
+__all__ = ["diagnose", "predict"]
+
+
+def diagnose(
+    campaign: str | os.PathLike[str] | Campaign,
+    *,
+    candidates: Sequence[str] | None = None,
+    nuisance: Sequence[NuisanceSpec | str] | None = DEFAULT_NUISANCE,
+    preset: Preset | None = None,
+    overrides: Mapping[str, float] | None = None,
+    cycles: float = DEFAULTS.recording_cycles,
+    analyse_cycles: float = DEFAULTS.analyse_cycles,
+    phases: int = DEFAULTS.diagnosis_phases,
+    policy: Policy | None = None,
+    min_delta: float | None = None,
+    min_reduction: float | None = None,
+    max_effects: int | None = None,
+    screen_top: int | None = None,
+    max_rms: float | None = None,
+    noise_rms: float | None = None,
+    block_fraction: float = 0.3,
+    review: bool = True,
+    workers: int | None = DEFAULTS.workers,
+    progress: ProgressArg = True,
+    cache: ResultCache | str | os.PathLike[str] | bool | None = None,
+    scheduler: str | None = DEFAULTS.scheduler,
+) -> Diagnosis:
+    """Calibrate the base model's nuisance constants, locate the mismatch, select missing
+    physics by forward selection on held-out events, and give a verdict.
+
+    Why so many parameters: each mirrors an option of ``vadsim diagnose`` one to one, so
+    that a script and a command line say the same; they group into the campaign and its
+    candidates, the run (``preset`` to ``phases``), the decision thresholds (``policy``, or
+    any of them on their own) and where the work runs (``workers`` to ``scheduler``).
+
+    Parameters
+    ----------
+    campaign
+        A campaign folder or TOML file, a :class:`Campaign`, or ``"thesis:7in-cde"`` etc.
+    candidates
+        Candidate ids or keys (default: all of :data:`vadsim.fit.candidates.CANDIDATES`).
+    nuisance
+        Constants fitted with every hypothesis: :class:`~vadsim.fit.nuisance.NuisanceSpec`
+        or ``"NAME=LO:HI"`` (default: WOB scale +-15 % and theta0; ``()`` or None: none).
+    preset, overrides
+        The base model (default: the campaign's tool and bit) and changes to it.
+    cycles, analyse_cycles
+        Run length and analysed window (excitation cycles).
+    phases
+        Sampling phases the simulated features are averaged over.
+    policy
+        Every decision threshold (:class:`~vadsim.fit.diagnosis.policy.Policy`; default its
+        defaults). ``min_delta``, ``min_reduction``, ``max_effects``, ``screen_top``,
+        ``max_rms`` and ``noise_rms``, where given, replace the policy's (their meaning is
+        there).
+    block_fraction
+        Fraction of the distinct flows (highest first) held out as one block.
+    review
+        Review the chosen model once selection ends
+        (:func:`~vadsim.fit.diagnosis.selection.review`).
+    workers
+        Worker processes (default: all cores).
+    progress
+        ``True`` (default): a progress bar on stderr; ``False``: silent; a callable: called
+        with one line per finished step.
+    cache
+        A folder (or :class:`~vadsim.model.cache.ResultCache`) that keeps every measured
+        run, so that a second diagnosis, calibration or validation meeting the same runs
+        reads them (None: ``$VADSIM_CACHE`` if set; False: none).
+    scheduler
+        A Dask scheduler's address (``"tcp://HOST:PORT"``): candidate fits, probes and pair
+        screens run on that cluster instead of local processes (the base calibration and the
+        verdict stay here), with the same result as local. Its workers need vadsim.
+    """
+    t0 = time.perf_counter()
+    pol = _policy(policy, min_delta=min_delta, min_reduction=min_reduction,
+                  max_effects=max_effects, screen_top=screen_top, max_rms=max_rms,
+                  noise_rms=noise_rms)
+    _check_run(block_fraction, phases, scheduler)
+    store = default_cache(cache)
+    cache_folder: str | bool = str(store.folder) if store is not None else False
+    say = reporter(progress)
+    camp = load_any_campaign(campaign)
+    keys = keys_for(list(candidates) if candidates is not None else None)
+    settings = RunSettings(preset or campaign_preset(camp), overrides=overrides or {},
+                           cycles=cycles, analyse_cycles=analyse_cycles)
+    nuis = resolve_nuisance(tuple(parse_nuisance(s) if isinstance(s, str) else s
+                                  for s in (nuisance or ())), settings)
+    folds = make_folds(camp, block_fraction)
+    eids = [e.id for e in camp.events]
+    with CampaignEvaluator(camp, settings, phases=phases,
+                           workers=workers or os.cpu_count() or 1, cache=cache_folder) as ev, \
+            bar(progress, None, f"diagnose {camp.name}", "fit") as b, \
+            contextlib.ExitStack() as stack:
+        say = on_bar(say, b)
+        plain = fit_hypothesis(ev, Hypothesis(), (), [], folds, eids, say)
+        probe_eids, probe_folds = probe_subset(camp, folds, PROBE_EVENTS)
+        ctx = Context(camp, settings, phases, tuple(folds), tuple(eids), ev.targets,
+                      {e: tuple(k) for e, k in ev.keys.items()}, probe_eids, probe_folds,
+                      cache_folder, dict(ev.noise_g), warm=ev.warm_starts(),
+                      scheduler=scheduler)
+        coarse_ev = stack.enter_context(ctx.evaluator(True, ev.workers))
+        hyp0 = Hypothesis((), nuis)
+        base = calibrate_base(ctx, ev, coarse_ev, hyp0, say)
+        b.update(2)
+        ctx, base_eval, found, found_events = located(ctx, ev, hyp0, base, say)
+        none = none_model(base, plain)
+        sel = selection.forward_selection(ctx, ev, coarse_ev, base, none, keys, pol, say,
+                                          bar_tick(b))
+        chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
+                            if review else (sel.chosen, []))
+        final = chosen or none
+        flows = {e.id: e.flow_gpm for e in camp.events}
+        baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),
+                                    strict=True)) for e in eids}
+        return Diagnosis(
+            campaign=camp, preset=settings.preset, located=found,
+            located_events=found_events, uncalibrated=plain, baseline=base, steps=sel.steps,
+            chosen=chosen, verdict=verdict(chosen, final, pol),
+            unexplained=unexplained(final, flows, pol), recorded=ev.targets,
+            keys=dict(ev.keys), baseline_sim=baseline_sim, folds=folds,
+            settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, phases=phases,
+                          block_fraction=block_fraction, review=review, candidates=keys,
+                          nuisance=[f"{s.name}={s.lo:g}:{s.hi:g}" for s in nuis],
+                          overrides=dict(settings.overrides),
+                          noise_g={k: round(v, 4) for k, v in ev.noise_g.items()},
+                          **pol.as_dict()),
+            elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals + coarse_ev.n_evals,
+            pairs=sel.pairs, review=reviewed,
+        )
+
+
+def _policy(policy: Policy | None, **given: Any) -> Policy:
+    """``policy`` (default :class:`Policy`'s) with the thresholds given on their own."""
+    if policy is not None and not isinstance(policy, Policy):
+        raise ValueError(f"policy = {policy!r} must be a Policy")
+    return replace(policy or Policy(), **{k: v for k, v in given.items() if v is not None})
+
+
+def _check_run(block_fraction: float, phases: int, scheduler: str | None) -> None:
+    if not (isinstance(block_fraction, (int, float)) and 0.0 < block_fraction < 1.0):
+        raise ValueError(f"block_fraction = {block_fraction!r} must be in (0, 1)")
+    if isinstance(phases, bool) or not (isinstance(phases, int) and phases >= 1):
+        raise ValueError(f"phases = {phases!r} must be an integer >= 1")
+    if scheduler is not None and not (isinstance(scheduler, str) and scheduler.strip()):
+        raise ValueError(f"scheduler = {scheduler!r} must be a Dask scheduler's address, "
+                         "e.g. 'tcp://10.0.0.5:8786'")
+
+
+def predict(diag: Diagnosis, campaign: str | os.PathLike[str] | Campaign, *,
+            preset: Preset | None = None, workers: int | None = None,
+            cache: ResultCache | str | os.PathLike[str] | bool | None = None) -> dict[str, Any]:
+    """Predict another campaign with the calibrated base model and with the diagnosis' final
+    model (fitted values and nuisance constants, nothing refitted), e.g. the 7in RC test from
+    a fit on the CDE test. ``cache`` as in :func:`diagnose`.
+
+    Returns a JSON-ready dict (also stored as ``diag.prediction``): RMS standardised
+    residual before/after and per event.
+    """
+    camp = load_any_campaign(campaign)
+    s = diag.settings
+    settings = RunSettings(preset or campaign_preset(camp), overrides=s["overrides"],
+                           cycles=s["cycles"], analyse_cycles=s["analyse_cycles"])
+    eids = [e.id for e in camp.events]
+    with CampaignEvaluator(camp, settings, phases=s["phases"],
+                           workers=workers or os.cpu_count() or 1, cache=cache) as ev:
+        base = diag.none_fit
+        got = HypothesisCosts(ev, base.hypothesis, eids).evaluate([base.point])
+        before, per_before = rms_of(got, base.point, eids)
+        out: dict[str, Any] = {"campaign": camp.name, "physics": diag.missing_physics,
+                               "error_before": before, "error_after": before}
+        per_event = {e: {"flow_gpm": ev.events[e].flow_gpm, "rms_before": per_before[e]}
+                     for e in eids}
+        # the chosen physics, and what the best-ranked candidate would predict even though it
+        # was not chosen: evidence for the next campaign, not a verdict
+        top = diag.ranking[0] if diag.ranking and diag.chosen is None else None
+        for fit, label in ((diag.chosen, "after"), (top, "best_ranked")):
+            if fit is None:
+                continue
+            got = HypothesisCosts(ev, fit.hypothesis, eids).evaluate([fit.point])
+            err, per = rms_of(got, fit.point, eids)
+            if label == "after":
+                out["error_after"] = err
+            else:
+                out["best_ranked"] = {"key": fit.key, "parameters": fit.parameters,
+                                      "error": err}
+            for e in eids:
+                per_event[e][f"rms_{label}"] = per[e]
+        out["events"] = per_event
+    diag.prediction = jsonable(out)
+    return diag.prediction

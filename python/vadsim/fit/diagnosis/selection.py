@@ -1,0 +1,246 @@
+"""Which effects a diagnosis chooses: forward selection on held-out events, then a review.
+
+Forward selection (:func:`forward_selection`) adds the best-scoring candidate while it passes
+the :class:`~vadsim.fit.diagnosis.policy.Policy` (:func:`~vadsim.fit.diagnosis.policy.passes`),
+trying pairs where no single effect does; the review (:func:`review`) refits the chosen model
+with each effect swapped for its variants and without each effect, and drops what the
+held-out error does not need. Every decision is the policy's; this module only orders the
+fits.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from vadsim.compare import CampaignEvaluator
+from vadsim.fit.candidates import CANDIDATES
+from vadsim.fit.diagnosis import search
+from vadsim.fit.diagnosis.evidence import Context
+from vadsim.fit.diagnosis.hypotheses import (
+    Job,
+    densify,
+    job,
+    refit_stages,
+    siblings,
+    without,
+)
+from vadsim.fit.diagnosis.parallel import Tick, fit_all
+from vadsim.fit.diagnosis.policy import (
+    Policy,
+    any_vanishes,
+    needed,
+    passes,
+    vanishes,
+    vanishes_in_folds,
+)
+from vadsim.fit.hypothesis_fit import HypothesisFit
+from vadsim.fit.scoring import aicc
+
+__all__ = ["Selection", "forward_selection", "refits_without", "rescored", "review"]
+
+@dataclass
+class Selection:
+    steps: list[list[HypothesisFit]]
+    chosen: HypothesisFit | None
+    pairs: list[dict[str, Any]] = field(default_factory=list)
+
+
+def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                       base: HypothesisFit, none: HypothesisFit,
+                       keys: list[str], policy: Policy, say: Callable[[str], None],
+                       tick: Tick) -> Selection:
+    """Add candidates one at a time while the next one passes the thresholds. Candidates
+    extend the calibrated ``base``; the first has to beat ``none`` (:func:`none_model`).
+
+    Why so many parameters: this is the diagnosis' selection stage, and it takes what the
+    earlier stages produced: the context and both engines (full and coarse), the calibrated
+    base model and "none", the candidates, the thresholds (``policy``) and the progress
+    callbacks (``say``, ``tick``).
+
+    Where no single candidate passes and "none" leaves the campaign unexplained, two effects
+    may need each other (each alone absorbed by the other's parameters or the nuisance
+    constants): a pair step (:func:`pair_step`) then probes pairs of the first step's most
+    promising candidates jointly, fits the best, and chooses one if it passes the thresholds
+    against "none" with neither candidate vanishing. The pair step runs once: also where
+    the first step chose one effect, the second step failed and that one effect leaves the
+    campaign unexplained (one effect absorbed part of another, e.g. a contact law taking
+    part of a mount resonance on blind-12); the pair then replaces the single effect if it
+    passes the thresholds against it. Where none of its pairs passes, the screen of every
+    model-side pair (:func:`screen_all_pairs`) follows, once, under the same rules: two effects
+    that cancel show in no single probe, so the prospects cannot hold them."""
+    current, steps, pool = base, [], list(keys)
+    solo: dict[str, HypothesisFit] = {}
+    probes: list[HypothesisFit] = []
+    tried: list[dict[str, Any]] = []
+    step, pair_tried = 0, False
+    while len(current.keys) < policy.max_effects:
+        bar = none if not current.keys else current
+        if not pool or bar.heldout_rms <= policy.noise_rms:
+            break  # nothing left to try, or the current model is within the noise
+        say(f"step {step + 1}: fitting {len(pool)} candidate(s) on top of {current.key}")
+        if len(pool) > policy.screen_top:
+            fits = search.screened(ctx, ev, coarse_ev, current, pool, policy.screen_top, say,
+                             tick, solo, probes if step == 0 else None)
+        else:
+            fits = fit_all(ctx, [job(current, k, solo.get(k)) for k in pool], ev, coarse_ev,
+                            say, tick)
+        # a probe-only fit (a subset of events, shorter runs) is ranked but never chosen
+        fits = sorted(fits, key=lambda f: (f.probe, vanishes(f), f.score))
+        if step == 0:
+            solo = {f.keys[-1]: f for f in fits}
+        else:
+            bar = current = rescored(current, fits, say)
+        steps.append(fits)
+        step += 1
+        if not passes(fits[0], bar, current, policy):
+            if (not pair_tried and len(current.keys) <= 1 and policy.max_effects >= 2
+                    and bar.heldout_rms > policy.max_rms):
+                pair_tried = True
+                fitted: set[frozenset[str]] = set()
+                for source in ("prospects", "screen"):
+                    pairs = (search.pair_step(ctx, ev, coarse_ev, base, probes, policy, say,
+                                              tried, tick)
+                             if source == "prospects" else
+                             search.screen_all_pairs(ctx, ev, coarse_ev, base, keys, say, tried,
+                                                     fitted, tick))
+                    if not pairs:
+                        continue
+                    fitted |= {frozenset(f.keys) for f in pairs}
+                    steps.append(pairs)
+                    step += 1
+                    if (passes(pairs[0], bar, current, policy)
+                            and not any_vanishes(pairs[0])):
+                        break
+                    say(f"the best pair, {pairs[0].key}, does not pass against "
+                        + ("'none'" if not current.keys else current.key))
+                    pairs = []
+                if pairs:
+                    if current.keys:
+                        say(f"the pair {pairs[0].key} replaces {current.key}")
+                    current = densify(ctx, ev, coarse_ev, pairs[0], say)
+                    chosen_ids = set(current.ids)
+                    pool = [k for k in keys if CANDIDATES[k].id not in chosen_ids]
+                    continue
+            break
+        current = densify(ctx, ev, coarse_ev, fits[0], say)
+        chosen_ids = set(current.ids)
+        pool = [f.keys[-1] for f in fits[1:] if CANDIDATES[f.keys[-1]].id not in chosen_ids]
+    return Selection(steps, current if current is not base else None, tried)
+
+
+def rescored(current: HypothesisFit, fits: list[HypothesisFit],
+              say: Callable[[str], None]) -> HypothesisFit:
+    """The current model with the held-out score of a fit on top of it whose new candidate
+    vanished in the all-event fit and in every fold, where that score is better: each fold of
+    that fit then chose, by its training events alone, a point of the current model, so its
+    held-out score is one of the current model, found by a wider search (measured: the 6-event
+    hydraulic campaign, hydraulic alone 2.64, hydraulic + friction at 0 N/kg in every fold 0.31;
+    with the bar at 2.64 a contact law then passed it and was reported as a second effect)."""
+    better = [f for f in fits if not f.probe and vanishes(f) and vanishes_in_folds(f)
+              and f.heldout_rms < current.heldout_rms]
+    if not better:
+        return current
+    wider = min(better, key=lambda f: f.heldout_rms)
+    say(f"{wider.key} vanished in every fold and held out better ({wider.heldout_rms:.3f} < "
+        f"{current.heldout_rms:.3f}): {current.key} takes that score")
+    own = {p.name for p in current.hypothesis.specs}
+
+    def current_only(by_fold: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+        return {f: {n: v for n, v in fv.items() if n in own} for f, fv in by_fold.items()}
+
+    return replace(current, heldout_rms=wider.heldout_rms,
+                   heldout_rms_lofo=wider.heldout_rms_lofo,
+                   heldout_rms_block=wider.heldout_rms_block,
+                   score=aicc(wider.n_heldout, wider.heldout_rms ** 2, current.k),
+                   heldout=wider.heldout, heldout_sim=wider.heldout_sim,
+                   fold_values=current_only(wider.fold_values),
+                   predicted_values=current_only(wider.predicted_values))
+
+
+def review(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+           sel: Selection, keys: Sequence[str], policy: Policy,
+           say: Callable[[str], None]) -> tuple[HypothesisFit | None, list[dict[str, Any]]]:
+    """The chosen model reviewed once forward selection is done, since an effect was chosen
+    against the values the others had then: each chosen candidate is refitted as each of its
+    variants (:func:`siblings`) from the final values, and a variant that scores better
+    takes its place; then, with two or more effects, each is taken out and the rest refitted,
+    and one that the held-out error does not need is dropped (the least needed first, until
+    every one left is needed (:func:`~vadsim.fit.diagnosis.policy.needed`).
+
+    Measured on blind-12 (a 600 Hz mount resonance on both sensors + a contact law): the
+    second step chose the resonance on x1 alone, because on both sensors it was fitted
+    against a contact law that had absorbed part of it (factor 0.63 for 0.4), and the third
+    step added a housing mass to make up the x5 part."""
+    current = sel.chosen
+    log: list[dict[str, Any]] = []
+    if current is None:
+        return None, log
+    fitted = {f.keys[-1] for step in sel.steps for f in step if not f.probe and f.keys}
+    for key in list(current.keys):
+        if key not in current.keys:
+            continue
+        swaps = siblings(key, keys, current.keys, fitted)
+        if not swaps:
+            continue
+        say(f"review: {key} refitted as {', '.join(swaps)}")
+        jobs = []
+        for s in swaps:
+            hyp, start = without(current, key, s)
+            jobs.append(Job(hyp, start, tuple(refit_stages(hyp, fine=s))))
+        fits = fit_all(ctx, jobs, ev, coarse_ev, say)
+        best = min(fits, key=lambda f: f.score)
+        better = best.score < current.score
+        log.extend({"action": "swap", "from": key, "to": f.keys[list(current.keys).index(key)],
+                    "model": f.key, "score": f.score, "heldout_rms": f.heldout_rms,
+                    "against": current.score, "accepted": better and f is best} for f in fits)
+        if better:
+            say(f"review: {best.key} scores {best.score:.1f} < {current.score:.1f}: it "
+                f"replaces {current.key}")
+            current = best
+    while len(current.keys) >= 2:
+        fits = refits_without(ctx, ev, coarse_ev, current, sel, say)
+        keep = [needed(current, f, policy) for f in fits]
+        log.extend({"action": "drop", "from": key, "to": None, "model": f.key,
+                    "score": f.score, "heldout_rms": f.heldout_rms, "against": current.score,
+                    "accepted": False} for key, f in zip(current.keys, fits, strict=True))
+        spare = [(f.score, i) for i, (f, n) in enumerate(zip(fits, keep, strict=True))
+                 if not n]
+        if not spare:
+            break
+        _, i = min(spare)
+        log[len(log) - len(fits) + i]["accepted"] = True
+        say(f"review: {current.keys[i]} is not needed on top of {fits[i].key} "
+            f"(held-out RMS {fits[i].heldout_rms:.3f} without it, "
+            f"{current.heldout_rms:.3f} with): dropped")
+        current = fits[i]
+    return current, log
+
+
+def refits_without(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                    current: HypothesisFit, sel: Selection,
+                    say: Callable[[str], None]) -> list[HypothesisFit]:
+    """``current`` refitted without each of its effects, from its own values and, where
+    selection fitted the same model before (a first-step single effect), from that fit's
+    values too, the better of the two kept: started from the values the dropped effect left,
+    a refit can stay in their basin (measured: a hydraulic force refitted from its pair with
+    a contact law stopped at f_ref 43, n at its bound 3, held-out 0.81, where its own first-step
+    fit held out 0.22 at f_ref 68)."""
+    earlier = {f.keys: f for step in sel.steps for f in step if not f.probe and f.keys}
+    jobs, owner = [], []
+    for i, key in enumerate(current.keys):
+        hyp, start = without(current, key)
+        jobs.append(Job(hyp, start, tuple(refit_stages(hyp))))
+        owner.append(i)
+        before = earlier.get(hyp.keys)
+        if before is not None and before.hypothesis == hyp and before.point != start:
+            jobs.append(Job(hyp, before.point, tuple(refit_stages(hyp))))
+            owner.append(i)
+    say(f"review: {current.key} refitted without each of its {len(current.keys)} effects")
+    fits = fit_all(ctx, jobs, ev, coarse_ev, say)
+    best: dict[int, HypothesisFit] = {}
+    for i, f in zip(owner, fits, strict=True):
+        if i not in best or f.rss < best[i].rss:
+            best[i] = f
+    return [best[i] for i in range(len(current.keys))]

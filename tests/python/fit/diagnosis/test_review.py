@@ -1,0 +1,104 @@
+"""The review of a chosen model once forward selection ends (vadsim.fit.diagnosis._review):
+a variant chosen in place of the right one is swapped, an effect not needed on top of the
+others is dropped, and what is needed stays."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+from vadsim.campaigns.synthetic import synthetic_campaign
+from vadsim.fit.candidates import CANDIDATES
+from vadsim.fit.diagnosis import diagnose
+from vadsim.fit.diagnosis import selection as dmod
+from vadsim.fit.diagnosis.hypotheses import siblings, without
+from vadsim.fit.hypothesis import Hypothesis
+from vadsim.fit.hypothesis_fit import HypothesisFit
+from vadsim.model.change import ModelChange
+
+FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
+SMALL = dict(cycles=160, analyse_cycles=100, duration_s=3.0, noise_g=0.3)
+RUN = dict(cycles=SMALL["cycles"], analyse_cycles=SMALL["analyse_cycles"], phases=2,
+           progress=False)
+
+
+def _truth(key: str, values: dict[str, float]) -> ModelChange:
+    return CANDIDATES[key].change(values)
+
+
+def _fit(keys: tuple[str, ...], point: tuple[float, ...]) -> HypothesisFit:
+    return HypothesisFit(keys=keys, nuisance_specs=(), point=point, k=len(point),
+                         intervals=[], rss=1.0, n=10, heldout_rms=1.0, heldout_rms_lofo=1.0,
+                         heldout_rms_block=1.0, score=0.0)
+
+
+def test_without_removes_or_replaces_a_candidate_and_keeps_the_others_values():
+    fit = _fit(("contact_law", "sensor_chain[x1]", "mass[housing]"),
+               (0.44, 0.5, 635.0, 4.8, 0.93))
+    hyp, point = without(fit, "sensor_chain[x1]", "sensor_chain[both]")
+    assert hyp.keys == ("contact_law", "sensor_chain[both]", "mass[housing]")
+    assert point == (0.44, 0.5, 635.0, 4.8, 0.93)
+    hyp, point = without(fit, "mass[housing]")
+    assert hyp.keys == ("contact_law", "sensor_chain[x1]") and point == (0.44, 0.5, 635.0, 4.8)
+    hyp, point = without(fit, "contact_law")
+    assert hyp.keys == ("sensor_chain[x1]", "mass[housing]") and point == (635.0, 4.8, 0.93)
+    assert Hypothesis(hyp.keys).specs[0].name == "f_res_hz"
+
+
+def test_siblings_are_same_parameter_variants_cheap_or_already_fitted():
+    keys = list(CANDIDATES)
+    sc = siblings("sensor_chain[x1]", keys, ["sensor_chain[x1]"], fitted=())
+    assert set(sc) == {"sensor_chain[x5]", "sensor_chain[both]"}
+    # a model-side variant only where it was fitted fully when the chosen one was
+    assert siblings("mass[housing]", keys, ["mass[housing]"], fitted=()) == []
+    assert siblings("mass[housing]", keys, ["mass[housing]"], fitted=["mass[bit]"]) == \
+        ["mass[bit]"]
+    # a variant already chosen is not a swap
+    assert "sensor_chain[both]" not in siblings(
+        "sensor_chain[x1]", keys, ["sensor_chain[x1]", "sensor_chain[both]"], fitted=())
+
+
+def _forced(monkeypatch, keys=None, **opts):
+    """Forward selection run with other candidates or thresholds than the review's."""
+    real = dmod.forward_selection
+
+    def forced(ctx, ev, coarse_ev, base, none, all_keys, real_policy, say, tick):
+        return real(ctx, ev, coarse_ev, base, none, list(keys or all_keys),
+                    replace(real_policy, **opts), say, tick)
+
+    monkeypatch.setattr(dmod, "forward_selection", forced)
+
+
+@pytest.mark.slow
+def test_a_variant_chosen_in_place_of_the_right_one_is_swapped(monkeypatch):
+    """A mount resonance on both sensors; forward selection may only name it on x1 (as it
+    did on blind-12, where a contact law had absorbed the rest): the review refits it as
+    its variants and takes the one on both sensors."""
+    camp = synthetic_campaign("7in-cde", FLOWS, seed=21, **SMALL,
+                              change=_truth("sensor_chain[both]", {"f_res_hz": 600.0, "q": 6.0}))
+    _forced(monkeypatch, keys=["sensor_chain[x1]"])
+    d = diagnose(camp, candidates=["sensor_chain[x1]", "sensor_chain[both]"], **RUN)
+    swaps = [r for r in d.review if r["action"] == "swap"]
+    assert {r["to"] for r in swaps} == {"sensor_chain[both]"}  # the candidates offered
+    assert d.chosen is not None and d.chosen.keys == ("sensor_chain[both]",), d.summary()
+    assert [r["to"] for r in swaps if r["accepted"]] == ["sensor_chain[both]"]
+    assert d.chosen.values["f_res_hz"] == pytest.approx(600.0, rel=0.1)
+    assert "review: sensor_chain[x1] as sensor_chain[both]" in d.summary()
+    assert d.as_json()["review"] == d.review
+
+
+@pytest.mark.slow
+def test_an_effect_not_needed_on_top_of_the_others_is_dropped_and_the_needed_one_stays(
+        monkeypatch):
+    """A hydraulic force alone; forward selection with every threshold off adds a contact
+    law (it has no null, so it never vanishes) on top. The review, with the diagnosis'
+    thresholds, drops the contact law and keeps the hydraulic force."""
+    camp = synthetic_campaign("7in-cde", FLOWS, seed=11, **SMALL,
+                              change=_truth("hydraulic_force[anvil]", {"f_ref": 64.0, "n": 2.0}))
+    _forced(monkeypatch, min_delta=-1e9, min_reduction=-1e9, noise_rms=0.0, max_effects=2)
+    d = diagnose(camp, candidates=["hydraulic_force[anvil]", "contact_law"], **RUN)
+    drops = [r for r in d.review if r["action"] == "drop"]
+    assert {r["from"] for r in drops} == {"hydraulic_force[anvil]", "contact_law"}, d.summary()
+    assert [r["from"] for r in drops if r["accepted"]] == ["contact_law"], d.summary()
+    assert d.missing_physics == ["hydraulic_force"], d.summary()
+    assert d.chosen.parameters["hydraulic_force"]["f_ref"] == pytest.approx(64.0, rel=0.2)
