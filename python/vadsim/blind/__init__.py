@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from vadsim._progress import ProgressArg, bar, reporter
+from vadsim.blind.regret import regret
 from vadsim.blind.scenarios import (
     CLASSES,
     DEFAULT_FLOWS,
@@ -212,6 +213,26 @@ def _diagnose_all(camp_dir: Path, res_dir: Path, names: Sequence[str], *, cycles
     return results
 
 
+def _add_regrets(camp_dir: Path, res_dir: Path, results: dict[str, dict[str, Any]],
+                 truth: Mapping[str, Any], *, cycles: float, analyse_cycles: float,
+                 workers: int | None, progress: ProgressArg) -> None:
+    """Each diagnosed campaign's regret against its truth (:mod:`vadsim.blind.regret`),
+    kept in ``results/<name>.regret.json`` beside the diagnosis and added to its result.
+    Runs only after every diagnosis: the truth is read for scoring alone."""
+    say = reporter(progress)
+    for name, js in results.items():
+        path = res_dir / f"{name}.regret.json"
+        if path.is_file():
+            js["regret"] = json.loads(path.read_text())
+            continue
+        js["regret"] = regret(camp_dir / name, truth[name], js, cycles=cycles,
+                              analyse_cycles=analyse_cycles, workers=workers)
+        _write_json(path, js["regret"])
+        g = js["regret"]
+        say(f"{name}: regret {g['regret']:.0f} (noise {g['noise']:.0f})"
+            + (" -- a search failure" if g["search_failure"] else ""))
+
+
 def blind_benchmark(
     folder: str | os.PathLike[str],
     classes: Sequence[str] | None = None,
@@ -225,6 +246,7 @@ def blind_benchmark(
     diagnose_kwargs: Mapping[str, Any] | None = None,
     library: Mapping[str, Any] | None = None,
     finished_only: bool = False,
+    regrets: bool = True,
     progress: ProgressArg = True,
 ) -> dict[str, Any]:
     """Write the concealed campaigns of ``classes`` (None: all), diagnose each from disk,
@@ -240,7 +262,9 @@ def blind_benchmark(
     candidates). A folder from the earlier benchmark (``truth.json`` without
     ``benchmark.json``) is diagnosed and scored as it is, in one class "default".
     ``finished_only`` scores the campaigns already diagnosed and runs nothing (the scores
-    then say how many of the selected campaigns they cover).
+    then say how many of the selected campaigns they cover). ``regrets`` (default on)
+    evaluates each campaign's chosen and true models after its diagnosis
+    (:mod:`vadsim.blind.regret`; a few seconds a campaign) and scores the search failures.
     """
     root = Path(folder)
     camp_dir = root / "campaigns"
@@ -259,6 +283,9 @@ def blind_benchmark(
                             diagnose_kwargs=dict(diagnose_kwargs or {}), progress=progress,
                             finished_only=finished_only)
     truth = json.loads((camp_dir / "truth.json").read_text())  # read only to score
+    if regrets and not legacy:  # an earlier folder's campaigns may not load any more
+        _add_regrets(camp_dir, root / "results", results, truth, cycles=cycles,
+                     analyse_cycles=analyse_cycles, workers=workers, progress=progress)
     sc = score(results, truth, class_order=list(CLASSES))
     sc["settings"] = {"classes": list(classes) if classes is not None else "all",
                       "seed": seed, "duration_s": duration_s, "cycles": cycles,

@@ -30,6 +30,9 @@ Rules
   inside their 95 % interval; a calibrated uncertainty covers about 95 % of them.
 * false alarms over every null-like campaign: the null and nuisance_null classes and the
   nulls of the other classes.
+* regret (:mod:`vadsim.blind.regret`, where the result carries one): the chosen model's
+  training cost minus the true model's; a regret beyond the noise is a search failure,
+  whatever the verdict. Scored as the share of campaigns within the noise.
 """
 
 from __future__ import annotations
@@ -83,6 +86,7 @@ def normalise_result(r: Mapping[str, Any]) -> dict[str, Any]:
         "heldout_after": float(r.get("heldout_error_after", math.nan)),
         "elapsed_s": r.get("elapsed_s"),
         "concealment": r.get("concealment"),
+        "regret": r.get("regret"),
     }
 
 
@@ -168,6 +172,9 @@ def _row(name: str, r: dict[str, Any], t: dict[str, Any]) -> dict[str, Any]:
         "wob_scale_error": nerr["wob_scale"], "theta0_error": nerr["theta0"],
         "interval_covers": _coverage(t["truths"], found, r, t["nuisance"]),
         "concealment": r["concealment"], "elapsed_s": r["elapsed_s"],
+        "regret": None if r["regret"] is None else float(r["regret"]["regret"]),
+        "regret_noise": None if r["regret"] is None else float(r["regret"]["noise"]),
+        "search_failure": None if r["regret"] is None else bool(r["regret"]["search_failure"]),
     }
 
 
@@ -208,6 +215,10 @@ def _summary(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "theta0_error_median": _median([r["theta0_error"] for r in rows]),
         "intervals_covering": sum(sum(r["interval_covers"].values()) for r in rows),
         "intervals_scored": sum(len(r["interval_covers"]) for r in rows),
+        "regret_scored": sum(r["search_failure"] is not None for r in rows),
+        "search_failures": sum(bool(r["search_failure"]) for r in rows),
+        "regret_within_noise": _rate([None if r["search_failure"] is None
+                                      else not r["search_failure"] for r in rows]),
         "elapsed_s": float(sum(r["elapsed_s"] or 0.0 for r in rows)),
     }
 

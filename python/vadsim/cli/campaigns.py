@@ -53,7 +53,8 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
         "(--list) -- through the sensor chain with noise, under neutral shuffled names; "
         "diagnose each from disk without the truth; score per class and overall "
         "(identification, variants, false alarms, parameter error, held-out improvement, "
-        "nuisance recovery, PASS/FAIL per acceptance criterion) in scores.md and scores.json. "
+        "nuisance recovery, interval coverage, regret against the truth, PASS/FAIL per acceptance "
+        "criterion) in scores.md and scores.json. "
         "Resumes from finished results in OUT/results; more classes can be added to OUT later.",
         parents=[workers_parent(what="worker processes per diagnosis"), parents.quiet],
     )
@@ -68,6 +69,9 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
     bl.add_argument("--score-finished", action="store_true",
                     help="score the campaigns already diagnosed in OUT and run nothing (e.g. "
                     "while a long run is stopped); the scores say how many they cover")
+    bl.add_argument("--no-regret", action="store_true",
+                    help="skip the regret against the truth (the chosen and the true model "
+                    "evaluated after each diagnosis; a few seconds a campaign)")
     bl.set_defaults(func=_cmd_blind)
 
 
@@ -305,6 +309,7 @@ def _cmd_blind(args: argparse.Namespace) -> int:
     scenarios_of(args.classes)  # an unknown class: exit 2 before any work
     sc = blind_benchmark(args.out, args.classes, duration_s=args.duration, seed=args.seed,
                          workers=args.workers, finished_only=args.score_finished,
+                         regrets=not args.no_regret,
                          progress=False if args.quiet else lambda m: print(f"  {m}", flush=True))
     print(Path(args.out, "scores.md").read_text())
     return 0 if sc["campaigns"] else 1

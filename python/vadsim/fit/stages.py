@@ -26,11 +26,24 @@ from vadsim.fit.nuisance import NuisanceSpec
 if TYPE_CHECKING:
     from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, Point
 
-__all__ = ["COARSE_SEEDS", "Stage", "grid_points", "refine", "run_stages"]
+__all__ = ["COARSE_SEEDS", "REFINE_GAIN", "REFINE_ROUNDS", "Stage", "grid_points", "refine",
+           "run_stages"]
 
 
 COARSE_SEEDS = 3
 """How many of a coarse grid's best points are evaluated again at full fidelity."""
+
+REFINE_ROUNDS = 4
+"""At most this many Nelder-Mead rounds of ``maxfev`` evaluations each in a refinement of
+several coordinates, each restarted from the best point with a fresh simplex."""
+
+REFINE_GAIN = 0.05
+"""A refinement runs another round only while its last round cut the cost by more than this
+fraction: a candidate that is walking down a valley keeps going, one that does not help
+stops after one round. Measured on blind-10 (a hydraulic force whose amplitude and flow
+exponent trade off along a curved valley): one round of 16 evaluations ended at the grid
+point (67.5, 1.69) with training cost 260, the truth (60, 2.0) costing 45; rounds reach
+(60.1, 1.99) at 18."""
 
 
 def grid_points(hyp: Hypothesis, start: Point, free: Sequence[int],
@@ -96,11 +109,16 @@ def refine(costs: HypothesisCosts, start: Point, free: Sequence[int], maxfev: in
                                  method="bounded", options={"maxiter": maxfev, "xatol": 1e-3})
     else:
         x0 = u0[free]
-        simplex = np.vstack([x0] + [x0 + np.eye(len(free))[j] * steps[j]
-                                    for j in range(len(free))])
-        optimize.minimize(cost, x0, method="Nelder-Mead",
-                          options={"initial_simplex": simplex, "maxfev": maxfev,
-                                   "xatol": 1e-3, "fatol": 1e-3})
+        for _round in range(REFINE_ROUNDS):
+            before = best[0]
+            simplex = np.vstack([x0] + [x0 + np.eye(len(free))[j] * steps[j]
+                                        for j in range(len(free))])
+            optimize.minimize(cost, x0, method="Nelder-Mead",
+                              options={"initial_simplex": simplex, "maxfev": maxfev,
+                                       "xatol": 1e-3, "fatol": 1e-3})
+            if not best[0] < (1.0 - REFINE_GAIN) * before:
+                break
+            x0 = hyp.unit(best[1])[free]
     return best
 
 

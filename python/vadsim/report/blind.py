@@ -51,7 +51,7 @@ def _num(v: float | None, spec: str = ".3g") -> str:
 
 def _summary(sc: dict[str, Any]) -> pd.DataFrame:
     """One row per class and one for all: identification, variants, false alarms, held-out
-    gain, median parameter error, nuisance recovery, time."""
+    gain, median parameter error, nuisance recovery, interval coverage, regret, time."""
     rows = []
     for name, s in [*sc["classes"].items(), ("all", sc["overall"])]:
         perr = list(s["parameter_error_median"].values())
@@ -69,6 +69,8 @@ def _summary(sc: dict[str, Any]) -> pd.DataFrame:
             "abs wob_scale error (median)": _num(s["wob_scale_error_median"], ".3f"),
             "truths in 95 % interval": (f"{s['intervals_covering']}/{s['intervals_scored']}"
                                         if s.get("intervals_scored") else "-"),
+            "regret within noise": (f"{s['regret_scored'] - s['search_failures']}/"
+                                    f"{s['regret_scored']}" if s.get("regret_scored") else "-"),
             "time (s)": f"{s['elapsed_s']:.0f}",
         })
     return pd.DataFrame(rows).set_index("class")
@@ -109,6 +111,13 @@ def _found_text(r: dict[str, Any]) -> str:
     return text + ("" if r["correct"] else " **(wrong)**")
 
 
+def _regret_text(r: dict[str, Any]) -> str:
+    if r.get("regret") is None:
+        return "-"
+    flag = " **(search failure)**" if r["search_failure"] else ""
+    return f"{r['regret']:.0f} ({r['regret_noise']:.0f}){flag}"
+
+
 def _campaigns(rows: list[dict[str, Any]]) -> pd.DataFrame:
     """One row per campaign: truth, what was found, parameter errors, held-out RMS, time."""
     out = []
@@ -124,6 +133,7 @@ def _campaigns(rows: list[dict[str, Any]]) -> pd.DataFrame:
             "nuisance found": _nuisance_text(r),
             "held-out RMS before -> after": f"{_num(r['heldout_before'], '.2f')} -> "
                                             f"{_num(r['heldout_after'], '.2f')}",
+            "regret (noise)": _regret_text(r),
             "time (s)": f"{r['elapsed_s'] or 0:.0f}",
         })
     return pd.DataFrame(out).set_index("campaign")

@@ -178,7 +178,7 @@ def test_a_refinement_returns_the_best_point_it_evaluated():
     the same search had evaluated). Whatever the budget, the refinement returns the best
     point it saw."""
     from vadsim.fit.hypothesis import Hypothesis
-    from vadsim.fit.stages import refine
+    from vadsim.fit.stages import REFINE_ROUNDS, refine
 
     hyp = Hypothesis(("sensor_chain[x5]",))
     target = np.array([0.37, 0.61])
@@ -199,7 +199,46 @@ def test_a_refinement_returns_the_best_point_it_evaluated():
         r, point = refine(costs, start, (0, 1), maxfev)
         best = min(costs.seen.values())
         assert r == costs.seen[point] == best, (maxfev, r, best)
-        assert len(costs.seen) <= maxfev + 1  # the budget (and the start) still holds
+        assert len(costs.seen) <= REFINE_ROUNDS * maxfev + 1  # the budget and the start
+
+
+def test_a_refinement_walks_a_curved_valley_in_rounds_and_stops_where_nothing_improves():
+    """A candidate's amplitude and flow exponent trade off along a curved valley (blind-10:
+    one Nelder-Mead round of 16 evaluations stopped at a grid point at 5.7x the truth's
+    cost). Rounds restarted from the best point continue while each cuts the cost by more
+    than REFINE_GAIN, so the valley's floor is reached; on a cost that the first round cannot
+    improve, the refinement stops after that round."""
+    from vadsim.fit.hypothesis import Hypothesis
+    from vadsim.fit.stages import REFINE_ROUNDS, refine
+
+    hyp = Hypothesis(("sensor_chain[x5]",))
+
+    class Valley:  # a banana in the unit box, floor along u1 = 4 (u0 - 0.5)^2 + 0.3
+        def __init__(self, flat=False):
+            self.hyp, self.n, self.flat = hyp, 0, flat
+
+        def rss(self, point):
+            self.n += 1
+            if self.flat:
+                return 1.0
+            u = hyp.unit(point)
+            return float(1.0 + 100.0 * (u[1] - 4.0 * (u[0] - 0.5) ** 2 - 0.3) ** 2
+                         + 10.0 * (u[0] - 0.8) ** 2)
+
+    start = hyp.from_unit([0.3, 0.46])
+    one_round = Valley()
+    import vadsim.fit.stages as stages
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(stages, "REFINE_ROUNDS", 1)
+        one_round_rss, _ = refine(one_round, start, (0, 1), 16)
+    rounds = Valley()
+    rss, point = refine(rounds, start, (0, 1), 16)
+    floor = 1.0  # at u = (0.8, 0.66)
+    assert rss - floor < 0.5 * (one_round_rss - floor)
+    assert 16 < rounds.n <= REFINE_ROUNDS * 16 + 1
+    flat = Valley(flat=True)
+    refine(flat, start, (0, 1), 16)
+    assert flat.n <= 16 + 1
 
 
 HYDRAULIC = ("hydraulic_force[anvil]", {"f_ref": 64.0, "n": 2.0})

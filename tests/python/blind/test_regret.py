@@ -1,0 +1,61 @@
+"""Regret against the truth (vadsim.blind.regret): the chosen model's training cost minus the
+true model's, with the noise that separates a search failure from a fit within the noise."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+from vadsim.blind import Scenario, write_campaigns
+from vadsim.blind.regret import NOISE_SIGMAS, chosen_point, regret, truth_point
+from vadsim.fit.nuisance import DEFAULT_NUISANCE, resolve_nuisance
+from vadsim.model.presets import get_preset
+from vadsim.model.settings import RunSettings
+
+SMALL = dict(duration_s=1.0, cycles=60, analyse_cycles=40)
+FRICTION = Scenario("x", (("anvil_friction", {"force": 150.0}),), {"wob_scale": 1.1},
+                    flows=(300.0, 500.0))
+
+
+def _result(keys: list[str], params: dict, wob: float) -> dict:
+    return {"verdict": "explained" if keys else "none", "missing_physics_keys": keys or ["none"],
+            "parameters": params, "nuisance": {"wob_scale": {"value": wob,
+                                                             "interval": [wob, wob]}}}
+
+
+@pytest.fixture(scope="module")
+def friction_campaign(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("blind")
+    path, = write_campaigns(folder, (FRICTION,), **SMALL)
+    return path, json.loads((folder / "truth.json").read_text())[path.name]
+
+
+def test_truth_and_chosen_points_read_values_and_nuisance_by_name():
+    nuis = resolve_nuisance(tuple(DEFAULT_NUISANCE), RunSettings(get_preset("7in-cde")))
+    truth = {"truths": [{"key": "hydraulic_force[anvil]", "id": "hydraulic_force",
+                         "values": {"n": 2.0, "f_ref": 60.0}}], "nuisance": {"wob_scale": 1.1}}
+    hyp, point = truth_point(truth, nuis)
+    assert hyp.keys == ("hydraulic_force[anvil]",)
+    assert dict(zip([s.name for s in hyp.specs], point, strict=True))["f_ref"] == 60.0
+    theta0 = next(s.null for s in nuis if s.name == "theta0")
+    assert point[-2:] == hyp.round([60.0, 2.0, 1.1, theta0])[-2:]
+    result = _result(["hydraulic_force[anvil]"],
+                     {"hydraulic_force": {"acts_on": "anvil", "f_ref": 60.0, "n": 2.0}}, 1.1)
+    assert chosen_point(result, nuis) == (hyp, point)
+    hyp0, point0 = chosen_point(_result([], {}, 0.9), nuis)
+    assert hyp0.keys == () and point0 == hyp0.round([0.9, theta0])
+
+
+def test_the_truth_itself_has_no_regret_and_none_on_an_effect_is_a_search_failure(
+        friction_campaign):
+    path, truth = friction_campaign
+    kw = dict(cycles=SMALL["cycles"], analyse_cycles=SMALL["analyse_cycles"], workers=1)
+    at_truth = regret(path, truth, _result(["anvil_friction"],
+                                           {"anvil_friction": {"force": 150.0}}, 1.1), **kw)
+    assert at_truth["regret"] == 0.0 and not at_truth["search_failure"]
+    assert at_truth["noise"] == pytest.approx(NOISE_SIGMAS * math.sqrt(2 * at_truth["n"]))
+    assert at_truth["rms_truth"] < 1.5  # the recording noise alone
+    missed = regret(path, truth, _result([], {}, 1.0), **kw)
+    assert missed["rss_truth"] == pytest.approx(at_truth["rss_truth"])
+    assert missed["regret"] > missed["noise"] and missed["search_failure"]
