@@ -16,13 +16,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 from vadsim.fit.candidates import ParamSpec
 from vadsim.model.change import ModelChange, rest_phase
 from vadsim.model.presets import canonical_name, param_names
 from vadsim.model.settings import RunSettings
 
-__all__ = ["DEFAULT_NUISANCE", "NuisanceSpec", "parse_nuisance", "resolve_nuisance"]
+__all__ = ["DEFAULT_NUISANCE", "WIDEN_BY", "NuisanceSpec", "parse_nuisance", "resolve_nuisance",
+           "widen"]
 
 
 @dataclass(frozen=True)
@@ -96,3 +98,42 @@ def resolve_nuisance(specs: tuple[NuisanceSpec, ...], settings: RunSettings
         null = min(max(null, s.lo), s.hi) if not s.periodic else null
         out[s.name] = replace(s, null=float(null))
     return tuple(out.values())
+
+
+WIDEN_BY = 0.5
+"""A nuisance constant fitted at an end of its range has that end moved out by this fraction
+of the range (:func:`widen`)."""
+
+
+def widen(specs: tuple[NuisanceSpec, ...], at_bounds: list[dict[str, Any]]
+          ) -> tuple[tuple[NuisanceSpec, ...], list[dict[str, Any]]]:
+    """The specs with each constant that ``at_bounds`` (a fit's
+    :attr:`~vadsim.fit.hypothesis_fit.HypothesisFit.at_bounds`) names at an end of its range
+    widened at that end by :data:`WIDEN_BY` of the range; a positive lower end stays positive
+    (at least half of what it was: a WOB scale or a length cannot reach 0).
+
+    Why: a nuisance constant at its bound is evidence, not an estimate -- the recordings ask
+    for more than the range allows, and a candidate fitted on top of that calibration starts
+    from the wrong place. Returns the new specs and one record per change: ``name``,
+    ``bound``, ``value`` (where the fit stopped), ``from`` and ``to`` (the ranges)."""
+    hit = {e["param"]: e["bound"] for e in at_bounds if e.get("of") == "nuisance"}
+    out, changes = [], []
+    for spec in specs:
+        bound = hit.get(spec.name)
+        if bound is None or spec.periodic:
+            out.append(spec)
+            continue
+        span = spec.hi - spec.lo
+        lo, hi = spec.lo, spec.hi
+        if bound == "lower":
+            lo = lo - WIDEN_BY * span
+            if spec.lo > 0:
+                lo = max(lo, 0.5 * spec.lo)
+        else:
+            hi = hi + WIDEN_BY * span
+        out.append(replace(spec, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}")))
+        changes.append({"name": spec.name, "bound": bound,
+                        "value": next(e["value"] for e in at_bounds
+                                      if e.get("of") == "nuisance" and e["param"] == spec.name),
+                        "from": [spec.lo, spec.hi], "to": [out[-1].lo, out[-1].hi]})
+    return tuple(out), changes

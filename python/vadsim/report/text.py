@@ -52,6 +52,11 @@ def diagnosis_summary(diag: Diagnosis) -> str:
     lines.append(f"base model: held-out RMS {diag.uncalibrated.heldout_rms:.3f} nominal, "
                  f"{diag.baseline.heldout_rms:.3f} calibrated ({nuis or 'no nuisance'}); "
                  f"'none' is the {which} one")
+    for w in diag.widened_nuisance:
+        lines.append(f"nuisance {w['name']} ended at its {w['bound']} bound "
+                     f"({fmt_value(w['value'])}): the recordings ask for more than "
+                     f"{fmt_value(w['from'][0])}-{fmt_value(w['from'][1])}; widened to "
+                     f"{fmt_value(w['to'][0])}-{fmt_value(w['to'][1])} and refitted")
     for i, step in enumerate(diag.steps):
         lines.append(f"step {i + 1}: {'candidate':34s} {'k':>2s} "
                      f"{'held-out RMS (LOFO/block)':>26s} {'score':>9s}")

@@ -3,27 +3,32 @@
 A :class:`Job` is one hypothesis (candidates plus nuisance constants), its start and its
 stages (:class:`~vadsim.fit.stages.Stage`: grids and local refinements, on the full or the
 coarse engine); :func:`vadsim.fit.diagnosis.parallel.fit_all` runs a list of them. The
-stage plans differ by what is fitted: the base model's calibration (:func:`calibrate_base`),
+stage plans differ by what is fitted: the base model's calibration (:func:`calibrate_base`,
+widened where a nuisance constant ends at a bound: :func:`calibrate_widening`),
 a candidate on top of the chosen ones (:func:`job`, :func:`candidate_stages`), a screening
 probe (:func:`probe_stage`), a chosen model refitted near its optimum (:func:`refit_stages`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis.evidence import Context
 from vadsim.fit.hypothesis import Hypothesis, Point
 from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis
+from vadsim.fit.nuisance import NuisanceSpec, widen
 from vadsim.fit.stages import Stage
 
 __all__ = ["JOINT_IF_TRAINING_BELOW", "MAX_GRID_MODEL_SIDE", "MAX_JOINT_GRID_PARAMS",
-           "PAIR_REFINE_PER_PARAM", "PROBE_PER_AXIS", "PROBE_PER_AXIS_MEASUREMENT", "Job",
-           "calibrate_base", "candidate_stages", "densify", "job", "model_side",
-           "probe_stage", "refit_stages", "siblings", "without"]
+           "PAIR_REFINE_PER_PARAM", "PROBE_PER_AXIS", "PROBE_PER_AXIS_MEASUREMENT",
+           "WIDEN_ROUNDS", "Job", "calibrate_base", "calibrate_widening", "candidate_stages",
+           "densify", "job", "model_side", "probe_stage", "refit_stages", "replace_specs",
+           "siblings", "without"]
 
 JOINT_IF_TRAINING_BELOW = 0.9
 """A candidate is refined jointly with the nuisance constants only where its own fit already
@@ -88,15 +93,54 @@ def job(current: HypothesisFit, key: str, solo: HypothesisFit | None = None,
 
 
 def calibrate_base(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
-                    hyp: Hypothesis, say: Callable[[str], None]) -> HypothesisFit:
+                    hyp: Hypothesis, say: Callable[[str], None],
+                    start: Point | None = None) -> HypothesisFit:
     """The calibrated base model: a grid over every nuisance constant (on the coarse engine:
     a subset of events, shorter runs), then Nelder-Mead at the diagnosis' fidelity from the
-    three best grid points (theta0's cost has several minima)."""
+    three best grid points (theta0's cost has several minima); from ``start`` if given
+    (else the nominal constants)."""
     every = tuple(range(len(hyp.specs)))
     stages = ([Stage(grid=every, refine=every, maxfev=10 * len(every), starts=3, coarse=True)]
               if every else [])
-    return fit_hypothesis(ev, hyp, hyp.null_point(), stages, ctx.folds, list(ctx.eids), say,
+    return fit_hypothesis(ev, hyp, hyp.null_point() if start is None else hyp.round(start),
+                          stages, ctx.folds, list(ctx.eids), say,
                           coarse=(coarse_ev, list(ctx.probe_eids)))
+
+
+WIDEN_ROUNDS = 2
+"""How many times the base calibration is widened and refitted while a nuisance constant
+stays at an end of its range (:func:`calibrate_widening`)."""
+
+
+def calibrate_widening(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                       hyp: Hypothesis, say: Callable[[str], None]
+                       ) -> tuple[HypothesisFit, list[dict[str, Any]]]:
+    """:func:`calibrate_base`, and while a nuisance constant ends at a bound of its range,
+    that bound widened (:func:`~vadsim.fit.nuisance.widen`) and the base model refitted from
+    where it stopped, at most :data:`WIDEN_ROUNDS` times. Every later hypothesis extends the
+    returned fit, so it inherits the widened ranges. Returns the fit and the widenings (for
+    the result: a bound hit is reported, never silently kept)."""
+    fit = calibrate_base(ctx, ev, coarse_ev, hyp, say)
+    widened: list[dict[str, Any]] = []
+    for _ in range(WIDEN_ROUNDS):
+        specs, changes = widen(fit.hypothesis.nuisance, fit.at_bounds)
+        if not changes:
+            break
+        for c in changes:
+            say(f"nuisance {c['name']} at its {c['bound']} bound ({c['value']:.4g}): range "
+                f"{c['from'][0]:.4g}-{c['from'][1]:.4g} widened to {c['to'][0]:.4g}-"
+                f"{c['to'][1]:.4g}, base model refitted")
+        widened += changes
+        wider = Hypothesis((), specs)
+        refit = calibrate_base(ctx, ev, coarse_ev, wider, say, start=fit.point)
+        fit = refit if refit.rss <= fit.rss else replace_specs(fit, specs)
+    return fit, widened
+
+
+def replace_specs(fit: HypothesisFit, specs: tuple[NuisanceSpec, ...]) -> HypothesisFit:
+    """``fit`` with its nuisance ranges replaced (values kept): a refit over a wider range
+    that ended worse keeps the earlier point, but later fits still search the wider range."""
+    return dataclasses.replace(fit, nuisance_specs=specs)
 
 
 def model_side(hyp: Hypothesis, keys: Sequence[str] | None = None) -> bool:

@@ -30,7 +30,7 @@ from vadsim.fit.diagnosis.evidence import (
     probe_subset,
     rms_of,
 )
-from vadsim.fit.diagnosis.hypotheses import calibrate_base
+from vadsim.fit.diagnosis.hypotheses import calibrate_widening
 from vadsim.fit.diagnosis.parallel import bar_tick, on_bar
 from vadsim.fit.diagnosis.policy import Policy, none_model, unexplained, verdict
 from vadsim.fit.diagnosis.result import Diagnosis, jsonable
@@ -143,8 +143,8 @@ def diagnose(
                       cache_folder, dict(ev.noise_g), warm=ev.warm_starts(),
                       scheduler=scheduler)
         coarse_ev = stack.enter_context(ctx.evaluator(True, ev.workers))
-        hyp0 = Hypothesis((), nuis)
-        base = calibrate_base(ctx, ev, coarse_ev, hyp0, say)
+        base, widened = calibrate_widening(ctx, ev, coarse_ev, Hypothesis((), nuis), say)
+        hyp0, nuis = Hypothesis((), base.nuisance_specs), base.nuisance_specs
         b.update(2)
         ctx, base_eval, found, found_events = located(ctx, ev, hyp0, base, say)
         none = none_model(base, plain)
@@ -169,7 +169,7 @@ def diagnose(
                           noise_g={k: round(v, 4) for k, v in ev.noise_g.items()},
                           **pol.as_dict()),
             elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals + coarse_ev.n_evals,
-            pairs=sel.pairs, review=reviewed,
+            pairs=sel.pairs, review=reviewed, widened_nuisance=widened,
         )
 
 

@@ -58,6 +58,11 @@ class Diagnosis:
     pairs: list[dict[str, Any]] = field(default_factory=list)
     """The pair step's joint probes (empty where it did not run): ``pair``, ``probe_rss``,
     ``single_rss`` (the best single probe's) and ``fitted`` (whether it earned a full fit)."""
+    widened_nuisance: list[dict[str, Any]] = field(default_factory=list)
+    """Nuisance constants whose calibration ended at a bound of their range, each with the
+    range widened and the base model refitted (:func:`~vadsim.fit.nuisance.widen`):
+    ``name``, ``bound``, ``value`` where it stopped, ``from`` and ``to`` ranges. Every
+    hypothesis is fitted over the widened ranges."""
     review: list[dict[str, Any]] = field(default_factory=list)
     """The review of the chosen model (:func:`review`): each refit, ``action`` ``"swap"``
     (candidate ``from`` refitted as its variant ``to``) or ``"drop"`` (refitted without
@@ -124,6 +129,7 @@ class Diagnosis:
             "evaluations": self.n_evals,
             "pairs_probed": self.pairs,
             "review": self.review,
+            "widened_nuisance": self.widened_nuisance,
         }
         if self.prediction is not None:
             out["prediction"] = self.prediction

@@ -838,3 +838,40 @@ def test_a_probe_that_gains_only_by_its_anchor_earns_no_full_fit(monkeypatch):
     assert calls == [["rock_stiffness"]]
     # without any probe at a null the start stays the reference (a resonance alone)
     assert dg.current_cost([]) == math.inf
+
+
+def test_widen_moves_the_bound_hit_and_keeps_a_positive_lower_end_positive():
+    from vadsim.fit.nuisance import THETA0, WIDEN_BY, NuisanceSpec, widen
+
+    wob = NuisanceSpec("wob_scale", 0.85, 1.15, "-", "linear", 1.0)
+    length = NuisanceSpec("l0", 0.1, 1.0, "m", "linear", 0.5)
+    specs = (wob, length, THETA0)
+    hits = [{"of": "nuisance", "param": "wob_scale", "value": 1.15, "bound": "upper"},
+            {"of": "nuisance", "param": "l0", "value": 0.1, "bound": "lower"},
+            {"of": "hydraulic_force", "param": "n", "value": 3.0, "bound": "upper"}]
+    out, changes = widen(specs, hits)
+    assert out[0].lo == 0.85 and out[0].hi == pytest.approx(1.15 + WIDEN_BY * 0.3)
+    assert out[1].lo == pytest.approx(0.05) and out[1].hi == 1.0  # not 0.1 - 0.45 < 0
+    assert out[2] == THETA0
+    assert [(c["name"], c["bound"], c["value"]) for c in changes] == [
+        ("wob_scale", "upper", 1.15), ("l0", "lower", 0.1)]
+    assert changes[0]["from"] == [0.85, 1.15] and changes[0]["to"] == [0.85, out[0].hi]
+    assert widen(specs, []) == (specs, [])
+
+
+def test_a_nuisance_at_its_bound_is_reported_widened_and_refitted():
+    """The excitation phase at rest is 0.3 rad above the preset's (2.264), and the range
+    given for it stops at 2.4: the base calibration ends at that bound, which is evidence,
+    not an answer. The range is widened and the base model refitted beyond the old bound,
+    near the truth; the result and its summary say so."""
+    camp = synthetic_campaign("7in-cde", FLOWS, change=ModelChange(theta0=2.564), seed=14,
+                              **SMALL)
+    d = _diagnose(camp, candidates=["anvil_friction"],
+                  nuisance=["wob_scale=0.85:1.15", "theta0=2.0:2.4"])
+    widened = d.as_json()["widened_nuisance"]
+    assert widened and widened[0]["name"] == "theta0", d.summary()
+    assert widened[0]["bound"] == "upper" and widened[0]["from"] == [2.0, 2.4]
+    assert d.baseline.nuisance["theta0"] == pytest.approx(2.564, abs=0.05), d.summary()
+    assert "widened to" in d.summary()
+    assert any(s.startswith("theta0=2:") and not s.endswith(":2.4")
+               for s in d.settings["nuisance"])
