@@ -36,10 +36,16 @@ def _cpu_s(pid: int) -> float:
 
 
 def _interrupt_when_busy(proc: subprocess.Popen[str], cpu_s: float = 1.5) -> None:
-    """SIGINT once the child has computed ``cpu_s`` CPU seconds (its runs are under way:
-    imports take less), polling; a child that exits first fails the test."""
+    """SIGINT once the child, after its imports (it prints "ready" then), has computed
+    ``cpu_s`` more CPU seconds: its runs are under way. Counting from the start instead raced
+    with the imports where no bytecode is cached (a fresh install with
+    PYTHONDONTWRITEBYTECODE: the signal arrived inside scipy's import). A child that exits
+    first fails the test."""
     try:
-        while _cpu_s(proc.pid) < cpu_s:
+        assert proc.stdout is not None and proc.stdout.readline() == "ready\n", \
+            proc.communicate()
+        start = _cpu_s(proc.pid)
+        while _cpu_s(proc.pid) - start < cpu_s:
             assert proc.poll() is None, proc.communicate()
             time.sleep(0.05)
     except BaseException:
@@ -69,6 +75,7 @@ def test_sigint_stops_vadsim_run_with_exit_code_130():
     proc = _child(f"""
         import sys
         from vadsim.cli import main
+        print("ready", flush=True)
         sys.exit(main(["run", "--flow", "200", "--cycles", "{LONG}", "--analyse", "10"]))
     """)
     _interrupt_when_busy(proc)
@@ -82,6 +89,7 @@ def test_sigint_stops_runs_in_a_thread_pool():
     proc = _child(f"""
         from concurrent.futures import ThreadPoolExecutor
         import vadsim
+        print("ready", flush=True)
         try:
             with ThreadPoolExecutor(2) as pool, vadsim.stop_on_interrupt(pool):
                 list(pool.map(lambda q: vadsim.simulate("7in-cde", q, cycles={LONG},
@@ -138,6 +146,7 @@ def test_sigint_stops_a_map_on_threads(tmp_path):
     proc = _child(f"""
         import sys
         from vadsim.cli import main
+        print("ready", flush=True)
         sys.exit(main(["map", "--flows", "150", "300", "50", "--param", "kS", "--values",
                        "2e5", "5e5", "--steps", "3", "--cycles", "{LONG}", "--analyse", "10",
                        "--workers", "2", "--quiet", "--out", {str(tmp_path / "m.nc")!r},
