@@ -24,9 +24,11 @@ import argparse
 import json
 from pathlib import Path
 
+from vadsim.blind.regret import truth_point
 from vadsim.campaigns import campaign_preset, load_campaign
 from vadsim.compare import CampaignEvaluator
-from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
+from vadsim.fit.candidates import CANDIDATES
+from vadsim.fit.hypothesis import HypothesisCosts
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, resolve_nuisance
 from vadsim.model.settings import RunSettings
 
@@ -48,14 +50,12 @@ def main() -> int:
     settings = RunSettings(campaign_preset(camp), cycles=300, analyse_cycles=200,
                            steady=args.steady)
     nuis = resolve_nuisance(tuple(DEFAULT_NUISANCE), settings)
-    keys = tuple(t["key"] for t in truth["truths"])
-    hyp = Hypothesis(keys, nuis)
-    values = [v for t in truth["truths"] for v in t["values"].values()]
-    wob = float(truth["nuisance"].get("wob_scale", 1.0))
-    theta0 = float(truth["nuisance"].get("theta0", next(s.null for s in nuis
-                                                          if s.name == "theta0")))
-    points = {"truth": hyp.round([*values, wob, theta0])}
-    names = [f"{t['key']}.{p}" for t in truth["truths"] for p in t["values"]]
+    hyp, at_truth = truth_point(truth, nuis)
+    values = list(at_truth[:hyp.n_physics])
+    wob = at_truth[hyp.n_physics]
+    points = {"truth": at_truth}
+    order = [(t, p.name) for t in truth["truths"] for p in CANDIDATES[t["key"]].params]
+    names = [f"{t['key']}.{p}" for t, p in order]
     result = args.folder / "results" / f"{args.name}.json"
     if result.exists():
         for step in json.loads(result.read_text())["steps"]:
@@ -63,7 +63,7 @@ def main() -> int:
                 by_id = row["parameters"]
                 if set(row["ids"]) != {t["id"] for t in truth["truths"]} or row["probe_only"]:
                     continue
-                vals = [by_id[t["id"]][p] for t in truth["truths"] for p in t["values"]]
+                vals = [by_id[t["id"]][p] for t, p in order]
                 nv = [row["nuisance"][s.name] for s in nuis]
                 points[f"step {step['step']}: {row['candidate']}"] = hyp.round([*vals, *nv])
     for th in filter(None, args.theta0.split(",")):

@@ -34,7 +34,7 @@ from vadsim.campaigns import campaign_preset, load_campaign
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, Point
-from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
+from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, resolve_nuisance
 from vadsim.model.defaults import DEFAULTS
 from vadsim.model.settings import RunSettings
 
@@ -45,11 +45,6 @@ NOISE_SIGMAS = 2.0
 model's RSS (``sqrt(2 n)`` for ``n`` standardised residuals)."""
 
 
-def _nuisance(settings: RunSettings) -> tuple[NuisanceSpec, ...]:
-    return resolve_nuisance(tuple(parse_nuisance(s) if isinstance(s, str) else s
-                                  for s in DEFAULT_NUISANCE), settings)
-
-
 def truth_point(truth: Mapping[str, Any], nuisance: tuple[NuisanceSpec, ...]
                 ) -> tuple[Hypothesis, Point]:
     """The true model of one ``truth.json`` entry as a hypothesis and its point."""
@@ -58,8 +53,7 @@ def truth_point(truth: Mapping[str, Any], nuisance: tuple[NuisanceSpec, ...]
     values = [float(t["values"][p.name]) for t in truth["truths"]
               for p in CANDIDATES[t["key"]].params]
     concealed = truth.get("nuisance", {})
-    nuis = [float(concealed.get(s.name, 1.0 if s.name == "wob_scale" else (s.null or 0.0)))
-            for s in nuisance]
+    nuis = [float(concealed.get(s.name, s.null)) for s in nuisance]  # null: the preset's
     return hyp, hyp.round([*values, *nuis])
 
 
@@ -96,7 +90,7 @@ def regret(campaign: str | Path, truth: Mapping[str, Any], result: Mapping[str, 
     """
     camp = load_campaign(campaign)
     settings = RunSettings(campaign_preset(camp), cycles=cycles, analyse_cycles=analyse_cycles)
-    nuisance = _nuisance(settings)
+    nuisance = resolve_nuisance(DEFAULT_NUISANCE, settings)
     eids = [e.id for e in camp.events]
     with CampaignEvaluator(camp, settings, phases=phases, workers=workers or 1) as ev:
         ev.base(eids)

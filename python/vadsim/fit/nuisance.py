@@ -116,24 +116,22 @@ def widen(specs: tuple[NuisanceSpec, ...], at_bounds: list[dict[str, Any]]
     for more than the range allows, and a candidate fitted on top of that calibration starts
     from the wrong place. Returns the new specs and one record per change: ``name``,
     ``bound``, ``value`` (where the fit stopped), ``from`` and ``to`` (the ranges)."""
-    hit = {e["param"]: e["bound"] for e in at_bounds if e.get("of") == "nuisance"}
+    hit = {e["param"]: e for e in at_bounds if e.get("of") == "nuisance"}
     out, changes = [], []
     for spec in specs:
-        bound = hit.get(spec.name)
-        if bound is None or spec.periodic:
+        edge = hit.get(spec.name)
+        if edge is None or spec.periodic:
             out.append(spec)
             continue
         span = spec.hi - spec.lo
         lo, hi = spec.lo, spec.hi
-        if bound == "lower":
+        if edge["bound"] == "lower":
             lo = lo - WIDEN_BY * span
             if spec.lo > 0:
                 lo = max(lo, 0.5 * spec.lo)
         else:
             hi = hi + WIDEN_BY * span
         out.append(replace(spec, lo=float(f"{lo:.6g}"), hi=float(f"{hi:.6g}")))
-        changes.append({"name": spec.name, "bound": bound,
-                        "value": next(e["value"] for e in at_bounds
-                                      if e.get("of") == "nuisance" and e["param"] == spec.name),
+        changes.append({"name": spec.name, "bound": edge["bound"], "value": edge["value"],
                         "from": [spec.lo, spec.hi], "to": [out[-1].lo, out[-1].hi]})
     return tuple(out), changes

@@ -21,14 +21,14 @@ from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis.evidence import Context
 from vadsim.fit.hypothesis import Hypothesis, Point
 from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis
-from vadsim.fit.nuisance import NuisanceSpec, widen
+from vadsim.fit.nuisance import widen
 from vadsim.fit.stages import Stage
 
 __all__ = ["JOINT_IF_TRAINING_BELOW", "MAX_GRID_MODEL_SIDE", "MAX_JOINT_GRID_PARAMS",
            "PAIR_REFINE_PER_PARAM", "PROBE_PER_AXIS", "PROBE_PER_AXIS_MEASUREMENT",
            "WIDEN_ROUNDS", "Job", "calibrate_base", "calibrate_widening", "candidate_stages",
-           "densify", "job", "model_side", "probe_stage", "refit_stages", "replace_specs",
-           "siblings", "without"]
+           "densify", "job", "model_side", "probe_stage", "refit_stages", "siblings",
+           "without"]
 
 JOINT_IF_TRAINING_BELOW = 0.9
 """A candidate is refined jointly with the nuisance constants only where its own fit already
@@ -133,14 +133,9 @@ def calibrate_widening(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignE
         widened += changes
         wider = Hypothesis((), specs)
         refit = calibrate_base(ctx, ev, coarse_ev, wider, say, start=fit.point)
-        fit = refit if refit.rss <= fit.rss else replace_specs(fit, specs)
+        # a refit that ended worse keeps the earlier point; later fits still search wider
+        fit = refit if refit.rss <= fit.rss else dataclasses.replace(fit, nuisance_specs=specs)
     return fit, widened
-
-
-def replace_specs(fit: HypothesisFit, specs: tuple[NuisanceSpec, ...]) -> HypothesisFit:
-    """``fit`` with its nuisance ranges replaced (values kept): a refit over a wider range
-    that ended worse keeps the earlier point, but later fits still search the wider range."""
-    return dataclasses.replace(fit, nuisance_specs=specs)
 
 
 def model_side(hyp: Hypothesis, keys: Sequence[str] | None = None) -> bool:
