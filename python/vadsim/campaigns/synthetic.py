@@ -123,12 +123,14 @@ def synthetic_campaign(
 
 
 def record_run(r: SimulationResult, sensors: Mapping[str, Sensor], *, event_id: str,
-               flow_gpm: float, wob_klbf: float, phase: float, noise_g: float,
-               rng: np.random.Generator, duration_s: float | None = None,
+               flow_gpm: float, wob_klbf: float, phase: float,
+               noise_g: float | Mapping[str, float], rng: np.random.Generator,
+               duration_s: float | None = None,
                measurement: Callable[[str, np.ndarray, float], np.ndarray] | None = None,
                fine_rate_hz: float | None = None) -> Event:
     """One event recorded from a run on a fine grid: each sensor's chain at sampling
-    ``phase`` (fraction of a sample) with Gaussian noise, cut to ``duration_s``.
+    ``phase`` (fraction of a sample) with Gaussian noise (``noise_g``: one value in g RMS,
+    or one per sensor name, 0 for a sensor not named), cut to ``duration_s``.
 
     Why so many parameters: a recording is a run through a sensor chain, each of whose settings
     (rate, range, low-pass, noise, phase, seed) a campaign states.
@@ -147,7 +149,9 @@ def record_run(r: SimulationResult, sensors: Mapping[str, Sensor], *, event_id: 
         if measurement is not None:
             a_true = np.asarray(measurement(sname, a_true, fine), dtype=float)
         t_s, a_s, clip = sensor_chain(r.t, a_true, rate_hz=s.rate_hz, range_g=s.range_g,
-                                      lowpass_hz=s.lowpass_hz, phase=phase, noise_g=noise_g,
+                                      lowpass_hz=s.lowpass_hz, phase=phase,
+                                      noise_g=(float(noise_g.get(sname, 0.0))
+                                               if isinstance(noise_g, Mapping) else noise_g),
                                       rng=rng)
         columns[f"{sname}_g"] = a_s
         clipped[sname] = clip

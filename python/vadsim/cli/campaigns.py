@@ -177,6 +177,9 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
                     help="most effects forward selection adds (3)")
     dg.add_argument("--max-rms", type=float, default=2.0,
                     help="held-out RMS z above which the verdict is 'unexplained' (2)")
+    dg.add_argument("--noise-draws", type=int, default=20, metavar="N",
+                    help="campaigns the base model writes itself before 'none' is given: "
+                    "'none' only within 95 %% of their RMS z (20; 0: on --max-rms alone)")
     dg.add_argument("--no-review", action="store_true",
                     help="skip the review of the chosen model (each effect refitted as its "
                     "variants, and each one not needed on top of the others dropped)")
@@ -273,6 +276,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from vadsim.fit.diagnosis.pipeline import diagnose, predict
+    from vadsim.fit.diagnosis.policy import Policy
     from vadsim.fit.nuisance import DEFAULT_NUISANCE
     from vadsim.report.diagnosis import write_diagnosis_report
 
@@ -283,6 +287,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
                     max_effects=args.max_effects, max_rms=args.max_rms,
+                    policy=Policy(noise_draws=args.noise_draws),
                     review=not args.no_review, workers=args.workers,
                     progress=not args.quiet, cache=args.cache, scheduler=args.scheduler)
     if args.predict:

@@ -20,6 +20,7 @@ from typing import Any
 from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.campaigns import Campaign, campaign_preset, load_any_campaign
 from vadsim.compare import CampaignEvaluator
+from vadsim.fit.bootstrap import rms_draws
 from vadsim.fit.candidates import keys_for
 from vadsim.fit.diagnosis import selection
 from vadsim.fit.diagnosis.evidence import (
@@ -32,7 +33,13 @@ from vadsim.fit.diagnosis.evidence import (
 )
 from vadsim.fit.diagnosis.hypotheses import calibrate_widening
 from vadsim.fit.diagnosis.parallel import bar_tick, on_bar
-from vadsim.fit.diagnosis.policy import Policy, none_model, unexplained, verdict
+from vadsim.fit.diagnosis.policy import (
+    Policy,
+    none_model,
+    unexplained,
+    verdict,
+    within_noise,
+)
 from vadsim.fit.diagnosis.result import Diagnosis, jsonable
 from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
 from vadsim.fit.hypothesis_fit import fit_hypothesis
@@ -153,14 +160,19 @@ def diagnose(
         chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                             if review else (sel.chosen, []))
         final = chosen or none
+        noise = None
+        if chosen is None and final.heldout_rms <= pol.max_rms and pol.noise_draws:
+            say(f"'none' against {pol.noise_draws} campaigns it writes itself")
+            noise = within_noise(final, rms_draws(ev, final.hypothesis.change(final.point),
+                                                  n_boot=pol.noise_draws), pol)
         flows = {e.id: e.flow_gpm for e in camp.events}
         baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),
                                     strict=True)) for e in eids}
         return Diagnosis(
             campaign=camp, preset=settings.preset, located=found,
             located_events=found_events, uncalibrated=plain, baseline=base, steps=sel.steps,
-            chosen=chosen, verdict=verdict(chosen, final, pol),
-            unexplained=unexplained(final, flows, pol), recorded=ev.targets,
+            chosen=chosen, verdict=verdict(chosen, final, pol, noise), noise=noise,
+            unexplained=unexplained(final, flows, pol, noise), recorded=ev.targets,
             keys=dict(ev.keys), baseline_sim=baseline_sim, folds=folds,
             settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, phases=phases,
                           block_fraction=block_fraction, review=review, candidates=keys,

@@ -19,7 +19,7 @@ from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.hypothesis_fit import HypothesisFit
 
 __all__ = ["VERDICTS", "Policy", "any_vanishes", "at_null", "needed", "none_model", "passes",
-           "unexplained", "vanishes", "vanishes_in_folds", "verdict"]
+           "unexplained", "vanishes", "vanishes_in_folds", "verdict", "within_noise"]
 
 VERDICTS = ("none", "explained", "unexplained")
 """What a diagnosis can conclude (:func:`verdict`)."""
@@ -52,6 +52,16 @@ class Policy:
     review_min_cut : float
         Fraction. The review keeps an effect only if the model refitted without it holds out
         this much worse in RMS (at most ``min_reduction``), as well as ``min_delta`` in score.
+    noise_draws : int
+        Campaigns the model "none" stands for writes itself (a parametric bootstrap,
+        :func:`~vadsim.fit.bootstrap.rms_draws`) before the verdict "none" is given; 0 gives
+        "none" on ``max_rms`` alone.
+    noise_quantile : float
+        Fraction. "none" only where that model's RMS standardised residual on the campaign
+        (all events, at its fitted point) is at most this quantile of its RMS on the
+        campaigns it writes; above it, "unexplained" (a mismatch beyond the noise). 0.975:
+        the upper edge of their central 95 % band (below the band is no mismatch: a fit
+        closer than the noise allows).
     """
 
     min_delta: float = 10.0
@@ -61,6 +71,8 @@ class Policy:
     max_rms: float = 2.0
     noise_rms: float = 1.0
     review_min_cut: float = 0.1
+    noise_draws: int = 20
+    noise_quantile: float = 0.975
 
     def __post_init__(self) -> None:
         if not (_number(self.min_delta) and math.isfinite(self.min_delta)):
@@ -80,13 +92,20 @@ class Policy:
                              f"{self.max_rms!r})")
         if not (_number(self.review_min_cut) and 0.0 <= self.review_min_cut < 1.0):
             raise ValueError(f"review_min_cut = {self.review_min_cut!r} must be in [0, 1)")
+        if (isinstance(self.noise_draws, bool) or not isinstance(self.noise_draws, int)
+                or self.noise_draws < 0 or self.noise_draws == 1):
+            raise ValueError(f"noise_draws = {self.noise_draws!r} must be 0 (no bootstrap) or "
+                             "an integer >= 2")
+        if not (_number(self.noise_quantile) and 0.5 <= self.noise_quantile < 1.0):
+            raise ValueError(f"noise_quantile = {self.noise_quantile!r} must be in [0.5, 1)")
 
     def as_dict(self) -> dict[str, Any]:
         """The thresholds by name (a report's ``thresholds``)."""
         return {"min_delta": self.min_delta, "min_reduction": self.min_reduction,
                 "max_rms": self.max_rms, "noise_rms": self.noise_rms,
                 "max_effects": self.max_effects, "screen_top": self.screen_top,
-                "review_min_cut": self.review_min_cut}
+                "review_min_cut": self.review_min_cut, "noise_draws": self.noise_draws,
+                "noise_quantile": self.noise_quantile}
 
 
 def _number(v: Any) -> bool:
@@ -171,28 +190,52 @@ def vanishes_in_folds(fit: HypothesisFit) -> bool:
                                                       *fit.predicted_values.values()))
 
 
-def unexplained(final: HypothesisFit, flows: Mapping[str, float], policy: Policy
-                ) -> list[dict[str, Any]]:
-    """Where a final model that does not explain the campaign (held-out RMS above
-    ``policy.max_rms``) misses: the events whose own held-out RMS exceeds it, worst first;
-    none where the final model explains the campaign."""
-    if final.heldout_rms <= policy.max_rms:
+def unexplained(final: HypothesisFit, flows: Mapping[str, float], policy: Policy,
+                noise: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
+    """Where a final model that does not explain the campaign misses: held out above
+    ``policy.max_rms``, the events whose own held-out RMS exceeds it; nothing chosen and
+    beyond the noise (``noise``: :func:`within_noise`), the events whose held-out RMS
+    exceeds the noise band; worst first. None where the final model explains the campaign."""
+    if final.heldout_rms > policy.max_rms:
+        bar = policy.max_rms
+    elif noise is not None and not noise["within"]:
+        bar = float(noise["band"])
+    else:
         return []
     out = []
     for e, z in final.heldout.items():
         vals = np.array(list(z.values()))
         rms = float(np.sqrt(np.mean(vals ** 2))) if vals.size else 0.0
-        if rms > policy.max_rms:
+        if rms > bar:
             worst = sorted(z, key=lambda k: -abs(z[k]))[:3]
             out.append({"event": e, "flow_gpm": flows[e], "rms_z": rms,
                         "worst": {k: float(z[k]) for k in worst}})
     return sorted(out, key=lambda u: -u["rms_z"])
 
 
-def verdict(chosen: HypothesisFit | None, final: HypothesisFit, policy: Policy) -> str:
+def within_noise(final: HypothesisFit, draws: np.ndarray, policy: Policy) -> dict[str, Any]:
+    """Whether ``final`` (the model "none" stands for) lies within the noise: its RMS
+    standardised residual on the campaign (every event, at its fitted point) against the
+    ``policy.noise_quantile`` quantile of its RMS on the campaigns it writes itself
+    (``draws``, :func:`~vadsim.fit.bootstrap.rms_draws`). Both are at the model's own point,
+    so a right model sits inside the band by construction (its fit only lowers its RMS); the
+    held-out RMS would need every draw refitted on every fold."""
+    rms = math.sqrt(final.rss / final.n) if final.n else math.nan
+    band = float(np.quantile(draws, policy.noise_quantile))
+    return {"rms": rms, "band": band, "quantile": policy.noise_quantile,
+            "draws": int(draws.size), "median": float(np.median(draws)),
+            "within": bool(rms <= band)}
+
+
+def verdict(chosen: HypothesisFit | None, final: HypothesisFit, policy: Policy,
+            noise: Mapping[str, Any] | None = None) -> str:
     """``"explained"`` when effects were chosen and the final model holds out within
-    ``max_rms``; ``"none"`` when nothing was chosen and "none" does; ``"unexplained"``
-    otherwise: a mismatch no hypothesis explains is never reported as "none"."""
+    ``max_rms``; ``"none"`` when nothing was chosen, "none" holds out within ``max_rms`` and
+    lies within the noise (``noise``: :func:`within_noise`; None: not measured);
+    ``"unexplained"`` otherwise: a mismatch no hypothesis explains is never reported as
+    "none"."""
     if final.heldout_rms > policy.max_rms:
         return "unexplained"
-    return "explained" if chosen is not None else "none"
+    if chosen is not None:
+        return "explained"
+    return "unexplained" if noise is not None and not noise["within"] else "none"

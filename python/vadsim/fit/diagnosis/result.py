@@ -58,6 +58,11 @@ class Diagnosis:
     pairs: list[dict[str, Any]] = field(default_factory=list)
     """The pair step's joint probes (empty where it did not run): ``pair``, ``probe_rss``,
     ``single_rss`` (the best single probe's) and ``fitted`` (whether it earned a full fit)."""
+    noise: dict[str, Any] | None = None
+    """Where nothing was chosen: whether "none" lies within the noise
+    (:func:`~vadsim.fit.diagnosis.policy.within_noise`: ``rms`` on the campaign, ``band``,
+    the ``quantile`` of ``draws`` campaigns the model wrote itself, their ``median``,
+    ``within``); None where effects were chosen or the bootstrap was off."""
     widened_nuisance: list[dict[str, Any]] = field(default_factory=list)
     """Nuisance constants whose calibration ended at a bound of their range, each with the
     range widened and the base model refitted (:func:`~vadsim.fit.nuisance.widen`):
@@ -130,6 +135,7 @@ class Diagnosis:
             "pairs_probed": self.pairs,
             "review": self.review,
             "widened_nuisance": self.widened_nuisance,
+            "noise": self.noise,
         }
         if self.prediction is not None:
             out["prediction"] = self.prediction
