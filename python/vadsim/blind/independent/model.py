@@ -128,16 +128,23 @@ class IndependentModel:
         self.omega = p["alpha"] * self.flow_gpm
         self.f_exc_hz = self.omega / (2.0 * math.pi)
         self.mass = np.array([p[f"m{i}"] for i in range(1, 8)])
+        self._lengths = tuple(self.len[k] for k in ("LS", "L2", "LI", "L3", "LOn", "L1", "LR"))
+        self._contact = tuple(p[k] for k in ("kS", "cS", "kI", "cI", "kOff", "cOff", "kOn",
+                                             "cOn", "kR", "cR"))
+        self._string = tuple(p[f"{kc}{i}"] for i in range(3, 8) for kc in ("k", "c"))
+        self._excitation = (p["Fo"], p["phi"], p["beta"], p["psi"], p["cD"])
+        self._inv_mass = (1.0 / self.mass).tolist()
+        self._x_static = self.x_static.tolist()
 
     # ------------------------------------------------------------------------- the physics
 
     def indentations(self, x: Sequence[Any]) -> tuple[Any, Any, Any, Any, Any]:
         """MODEL.md's five indentations (m) at absolute positions ``x``: spring, impact face,
         off-bottom, on-bottom, rock."""
-        L = self.len
-        return ((x[2] + L["LS"]) - (x[1] - L["L2"]), x[1] - x[0],
-                (x[0] + L["LI"]) - (x[2] + L["L3"]), (x[2] + L["L3"]) - (x[0] + L["LI"] + L["LOn"]),
-                (x[0] + L["L1"]) - L["LR"])
+        LS, L2, LI, L3, LOn, L1, LR = self._lengths
+        x1, x2, x3 = x[0], x[1], x[2]
+        return ((x3 + LS) - (x2 - L2), x2 - x1, (x1 + LI) - (x3 + L3), (x3 + L3) - (x1 + LI + LOn),
+                (x1 + L1) - LR)
 
     def impact_force(self, x: Sequence[Any], v: Sequence[Any]) -> Any:
         """F_I (N/kg), the Kelvin-Voigt impact-face force of the nominal model."""
@@ -145,23 +152,30 @@ class IndependentModel:
 
     def forces(self, t: Any, x: Sequence[Any], v: Sequence[Any]) -> list[Any]:
         """The net force on each body (N/kg), effects included: MODEL.md's equations of
-        motion times the masses."""
-        p = self.p
+        motion times the masses. Floats (inside the integrator: math's trigonometry, the
+        fast path) or arrays (an output grid: numpy's)."""
+        kS, cS, kI, cI, kOff, cOff, kOn, cOn, kR, cR = self._contact
+        k3, c3, k4, c4, k5, c5, k6, c6, k7, c7 = self._string
+        Fo, phi, beta, psi, cD = self._excitation
+        x1, x2, x3, x4, x5, x6, x7 = x
+        v1, v2, v3, v4, v5, v6, v7 = v
         dS, dI, dOff, dOn, dR = self.indentations(x)
-        FS = _kv(dS, v[2] - v[1], p["kS"], p["cS"])
-        FI = _kv(dI, v[1] - v[0], p["kI"], p["cI"])
-        FOff = _kv(dOff, v[0] - v[2], p["kOff"], p["cOff"])
-        FOn = _kv(dOn, v[2] - v[0], p["kOn"], p["cOn"])
-        FR = _kv(dR, v[0], p["kR"], p["cR"])
-        # tension of the string's spring-dashpot pairs, body i above body i + 1
-        ten = [p[f"k{i + 1}"] * (x[i] - x[i + 1]) + p[f"c{i + 1}"] * (v[i] - v[i + 1])
-               for i in (2, 3, 4, 5)]
-        top = p["k7"] * (x[6] - self.x_top) + p["c7"] * v[6]
-        FH = p["Fo"] * np.cos(self.omega * t + p["phi"]) * np.sin(p["beta"] * (x[1] - x[2])
-                                                                  + p["psi"])
-        FD = p["cD"] * v[1] * abs(v[1])
-        f = [-FR + FOn - FOff + FI, -FI + FS + FH - FD, -ten[0] - FS - FOn + FOff,
-             ten[0] - ten[1], ten[1] - ten[2], ten[2] - ten[3], ten[3] - top]
+        FS = _kv(dS, v3 - v2, kS, cS)
+        FI = _kv(dI, v2 - v1, kI, cI)
+        FOff = _kv(dOff, v1 - v3, kOff, cOff)
+        FOn = _kv(dOn, v3 - v1, kOn, cOn)
+        FR = _kv(dR, v1, kR, cR)
+        # tension of the string's spring-dashpot pairs, each body above the next one
+        f3 = k3 * (x3 - x4) + c3 * (v3 - v4)
+        f4 = k4 * (x4 - x5) + c4 * (v4 - v5)
+        f5 = k5 * (x5 - x6) + c5 * (v5 - v6)
+        f6 = k6 * (x6 - x7) + c6 * (v6 - v7)
+        f7 = k7 * (x7 - self.x_top) + c7 * v7
+        cos, sin = (np.cos, np.sin) if isinstance(x1, np.ndarray) else (math.cos, math.sin)
+        FH = Fo * cos(self.omega * t + phi) * sin(beta * (x2 - x3) + psi)
+        FD = cD * v2 * abs(v2)
+        f = [-FR + FOn - FOff + FI, -FI + FS + FH - FD, -f3 - FS - FOn + FOff, f3 - f4,
+             f4 - f5, f5 - f6, f6 - f7]
         for effect in self.effects:
             f = [a + b for a, b in zip(f, effect(t, x, v, self.flow_gpm), strict=True)]
         return f
@@ -169,10 +183,10 @@ class IndependentModel:
     def rhs(self, t: float, y: np.ndarray) -> list[float]:
         """``dy/dt`` for ``y = [u, v]``, ``u = x - x_static`` (m): what the integrator calls."""
         u = y.tolist()
-        x = [a + b for a, b in zip(self.x_static.tolist(), u[:7], strict=True)]
+        x = [a + b for a, b in zip(self._x_static, u[:7], strict=True)]
         v = u[7:]
         f = self.forces(t, x, v)
-        return v + [fi / mi for fi, mi in zip(f, self.mass.tolist(), strict=True)]
+        return v + [fi * im for fi, im in zip(f, self._inv_mass, strict=True)]
 
     def accelerations(self, t: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Accelerations (m/s^2) of every body on an output grid: ``y`` is (n, 14)."""
