@@ -13,10 +13,10 @@ This chain is built apart from :mod:`vadsim.signals`:
 3. every 16th filtered point is the record; Gaussian noise is added, then the sensor clips at
    +-``range_g``.
 
-The records start after a settle (``settle_cycles`` excitation cycles from the static state,
-as a driller waits for steady operation) and the campaign folder (campaign.toml and one CSV
-per event) is written here in the RECORDINGS.md format, read back by
-:func:`vadsim.campaigns.load_campaign` in the tests.
+The records start after a settle (at least ``settle_cycles`` excitation cycles from the static
+state, more while the motion still drifts, as a driller waits for steady operation) and the
+campaign folder (campaign.toml and one CSV per event) is written here in the RECORDINGS.md
+format, read back by :func:`vadsim.campaigns.load_campaign` in the tests.
 """
 
 from __future__ import annotations
@@ -31,7 +31,13 @@ import numpy as np
 from scipy.signal import butter, cont2discrete, lfilter, lfilter_zi, ss2tf, zpk2ss
 
 from vadsim.blind.independent.effects import build_effect
-from vadsim.blind.independent.model import PRESETS, G, IndependentModel, preset_params
+from vadsim.blind.independent.model import (
+    PRESETS,
+    G,
+    IndependentModel,
+    preset_params,
+    settle,
+)
 
 __all__ = ["OVERSAMPLING", "SENSORS", "IndependentSpec", "analog_lowpass", "record_event",
            "write_campaign"]
@@ -44,7 +50,7 @@ SENSORS: dict[str, int] = {"x1": 1, "x5": 5}
 (dof 5)."""
 
 PREROLL_S = 0.25
-"""Seconds of filter run-in before the first recorded sample (inside the settle)."""
+"""Seconds of filter run-in after the settle, before the first recorded sample."""
 
 
 @dataclass(frozen=True)
@@ -102,9 +108,10 @@ def record_event(spec: IndependentSpec, flow_gpm: float, rng: np.random.Generato
                  ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """One event: the record's times (from 0) and each sensor's samples in g.
 
-    The run starts from the static state at t = 0; the record starts after
-    ``spec.settle_cycles`` cycles at a sampling phase drawn from ``rng`` (uniform over one
-    sample), which then draws the noise.
+    The run starts from the static state at t = 0; the record starts once it is steady
+    (:func:`~vadsim.blind.independent.model.settle`: at least ``spec.settle_cycles``
+    cycles) at a sampling phase drawn from ``rng`` (uniform over one sample), which then
+    draws the noise.
     """
     params = preset_params(spec.preset)
     effects = [build_effect(n, v, params) for n, v in spec.effects]
@@ -112,10 +119,11 @@ def record_event(spec: IndependentSpec, flow_gpm: float, rng: np.random.Generato
     n = int(round(spec.duration_s * spec.rate_hz))
     step = 1.0 / (spec.rate_hz * OVERSAMPLING)
     phase = float(rng.uniform(0.0, 1.0))
-    t_rec0 = max(spec.settle_cycles / model.f_exc_hz, PREROLL_S + step) + phase / spec.rate_hz
+    t_settled, y_settled, _ = settle(model, spec.settle_cycles)
     n_pre = int(round(PREROLL_S / step))
+    t_rec0 = t_settled + (n_pre + 1) * step + phase / spec.rate_hz
     t = t_rec0 + (np.arange(-n_pre, n * OVERSAMPLING) * step)
-    y = model.integrate(np.r_[0.0, t])[1:]
+    y = model.integrate(np.r_[t_settled, t], y_settled)[1:]
     acc = model.accelerations(t, y) / G
     out: dict[str, np.ndarray] = {}
     for name, dof in SENSORS.items():
