@@ -136,10 +136,9 @@ def record_event(spec: IndependentSpec, flow_gpm: float, rng: np.random.Generato
 
 def _toml(spec: IndependentSpec, name: str, files: Sequence[tuple[str, float]]) -> str:
     pr = PRESETS[spec.preset]
-    lines = ["# Field-test campaign, format of RECORDINGS.md (written by the independent "
-             "generator).", f"name = {json.dumps(name)}", f'tool = "{pr.tool}"',
-             f'bit = "{pr.bit}"',
-             f"wob_klbf = {pr.wob_klbf!r}",
+    # a neutral header: nothing in a blind campaign's files names its generator
+    lines = ["# Field-test campaign, format of RECORDINGS.md.", f"name = {json.dumps(name)}",
+             f'tool = "{pr.tool}"', f'bit = "{pr.bit}"', f"wob_klbf = {pr.wob_klbf!r}",
              'description = "blind benchmark campaign"', ""]
     for sname, dof in SENSORS.items():
         lines += [f"[sensors.{sname}]", f"dof = {dof}", f"rate_hz = {spec.rate_hz!r}",
