@@ -9,14 +9,15 @@ the WOB reading is off), to name both effects of a pair, and to improve predicti
 did not fit -- and one overall score would hide which kind of campaign it fails on. This
 benchmark writes campaigns in the RECORDINGS.md format from classes of scenarios
 (:mod:`vadsim.blind.scenarios`: nulls, nuisance-only, effect under a nuisance, pairs, generic
-effects, one-sensor effects, the RC bit, five events, 1 g noise), through the sensor chain
+effects, one-sensor effects, the RC bit, five events, 1 g noise, and the ``indep_*`` classes
+written by an independent generator, :mod:`vadsim.blind.independent`), through the sensor chain
 with noise, under neutral names in shuffled order; the truth and each campaign's class go to
 ``truth.json``, which the diagnosis never reads (it loads each campaign from disk). It then
 runs :func:`vadsim.fit.diagnosis.diagnose` on every campaign and scores per class and overall
 (:mod:`vadsim.blind.scoring`): identification, variants, false alarms, parameter errors,
 held-out improvement, nuisance recovery, and the acceptance criteria as PASS/FAIL lines.
 
-    vadsim blind --out blind-run                  # every class (32 campaigns)
+    vadsim blind --out blind-run                  # every class (44 campaigns)
     vadsim blind --out blind-run --classes pair   # some classes; the rest can follow later
     vadsim blind --list                           # the classes, no run
 """
@@ -27,6 +28,7 @@ import hashlib
 import json
 import math
 import os
+import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -35,7 +37,8 @@ from typing import Any
 import numpy as np
 
 from vadsim._progress import ProgressArg, bar, reporter
-from vadsim.blind.regret import regret
+from vadsim.blind.independent import write_campaign as write_independent_campaign
+from vadsim.blind.regret import regret, truth_is_library_point
 from vadsim.blind.scenarios import (
     CLASSES,
     DEFAULT_FLOWS,
@@ -106,10 +109,13 @@ def write_campaigns(folder: str | os.PathLike[str],
 
     Names and noise seeds are drawn over all ``scenarios``, so writing some classes now and
     others later into the same folder gives the same campaigns as writing all at once;
-    campaigns already written are kept. ``duration_s`` (None: each scenario's) overrides the
-    seconds per event (short test campaigns). ``library`` maps candidate keys to objects with
-    ``change(values)`` (default :data:`vadsim.fit.candidates.CANDIDATES`). Returns the
-    selected campaigns' folders in name order.
+    campaigns already written are kept. Scenarios of the independent generator
+    (``generator="independent"``) are written by :mod:`vadsim.blind.independent`, which
+    settles ``cycles - analyse_cycles`` cycles before each record. ``duration_s`` (None:
+    each scenario's) overrides the seconds per event (short test campaigns). ``library``
+    maps candidate keys to objects with ``change(values)`` (default
+    :data:`vadsim.fit.candidates.CANDIDATES`). Returns the selected campaigns' folders in
+    name order.
     """
     scenarios_of(classes, scenarios)  # unknown classes are an error before anything is written
     root = Path(folder)
@@ -133,13 +139,21 @@ def write_campaigns(folder: str | os.PathLike[str],
         if name in truth and (path / "campaign.toml").is_file():
             continue
         say(f"writing {name}")
+        truth_entry = {**sc.describe(), "duration_s": duration_s or sc.duration_s}
+        if sc.generator == "independent":
+            write_independent_campaign(path, sc.independent_spec(
+                duration_s, settle_cycles=cycles - analyse_cycles), seed=int(seeds[slot]),
+                name=name)
+            truth[name] = truth_entry
+            _write_json(truth_path, truth)
+            continue
         camp = synthetic_campaign(sc.preset, sc.flows, change=sc.change(library),
                                   cycles=cycles, analyse_cycles=analyse_cycles,
                                   duration_s=duration_s or sc.duration_s, noise_g=sc.noise_g,
                                   seed=int(seeds[slot]), name=name)
         camp.description = "blind benchmark campaign"
         save_campaign(camp, path)
-        truth[name] = {**sc.describe(), "duration_s": duration_s or sc.duration_s}
+        truth[name] = truth_entry
         _write_json(truth_path, truth)
     return sorted(paths)
 
@@ -153,11 +167,19 @@ def detectability(scenario: Scenario, *, library: Mapping[str, Any] | None = Non
     """How visible a scenario's effects are: per event (by flow), the RMS standardised
     residual of the base model with the scenario's nuisance truth against a campaign written
     with the whole truth. Below 1 the event looks like noise; a null gives about 0.2-0.5 at
-    0.3 g. No diagnosis is run (seconds per scenario)."""
-    camp = synthetic_campaign(scenario.preset, scenario.flows, change=scenario.change(library),
-                              cycles=cycles, analyse_cycles=analyse_cycles,
-                              duration_s=duration_s or scenario.duration_s,
-                              noise_g=scenario.noise_g, seed=seed)
+    0.3 g. No diagnosis is run (seconds per scenario). An independent scenario's campaign
+    is written by its generator into a temporary folder and read back."""
+    if scenario.generator == "independent":
+        with tempfile.TemporaryDirectory() as tmp:
+            write_independent_campaign(Path(tmp), scenario.independent_spec(
+                duration_s, settle_cycles=cycles - analyse_cycles), seed=seed)
+            camp = load_campaign(tmp)
+    else:
+        camp = synthetic_campaign(scenario.preset, scenario.flows,
+                                  change=scenario.change(library), cycles=cycles,
+                                  analyse_cycles=analyse_cycles,
+                                  duration_s=duration_s or scenario.duration_s,
+                                  noise_g=scenario.noise_g, seed=seed)
     settings = RunSettings(get_preset(scenario.preset), cycles=cycles,
                            analyse_cycles=analyse_cycles)
     with CampaignEvaluator(camp, settings, phases=phases, workers=workers) as ev:
@@ -224,6 +246,9 @@ def _add_regrets(camp_dir: Path, res_dir: Path, results: dict[str, dict[str, Any
         path = res_dir / f"{name}.regret.json"
         if path.is_file():
             js["regret"] = json.loads(path.read_text())
+            continue
+        if not truth_is_library_point(truth[name]):
+            js["regret"] = None  # n/a: no library point is the truth
             continue
         js["regret"] = regret(camp_dir / name, truth[name], js, cycles=cycles,
                               analyse_cycles=analyse_cycles, workers=workers)

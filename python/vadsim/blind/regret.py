@@ -38,11 +38,18 @@ from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, resolve_nuisance
 from vadsim.model.defaults import DEFAULTS
 from vadsim.model.settings import RunSettings
 
-__all__ = ["NOISE_SIGMAS", "chosen_point", "regret", "truth_point"]
+__all__ = ["NOISE_SIGMAS", "chosen_point", "regret", "truth_is_library_point", "truth_point"]
 
 NOISE_SIGMAS = 2.0
 """A regret counts as beyond the noise above this many standard deviations of the true
 model's RSS (``sqrt(2 n)`` for ``n`` standardised residuals)."""
+
+
+def truth_is_library_point(truth: Mapping[str, Any]) -> bool:
+    """Whether a ``truth.json`` entry is a point of the library (every campaign vadsim writes;
+    an independent generator's only when its effects are exact members, ``library_point``).
+    Elsewhere the regret is n/a: no library point is the truth."""
+    return bool(truth.get("library_point", True))
 
 
 def truth_point(truth: Mapping[str, Any], nuisance: tuple[NuisanceSpec, ...]

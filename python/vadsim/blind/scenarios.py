@@ -14,6 +14,12 @@ stand-in), and nothing here reaches into a candidate's internals.
 
 Magnitudes are chosen so that an effect shows at some operating points and not at others
 (``vadsim.blind.detectability`` measures it per event).
+
+The classes ``indep_*`` are written by the independent generator
+(:mod:`vadsim.blind.independent`: another simulator of the same model, its own sensor chain,
+effects in its own form), so the benchmark also holds campaigns the diagnosis' own simulator
+never wrote. Their truths are the library members the effects are scored as
+(:func:`vadsim.blind.independent.nearest_library`).
 """
 
 from __future__ import annotations
@@ -23,10 +29,18 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Protocol
 
+from vadsim.blind.independent.effects import EFFECTS, nearest_library
+from vadsim.blind.independent.recording import IndependentSpec
 from vadsim.model.change import ModelChange
 
-__all__ = ["CLASSES", "DEFAULT_FLOWS", "DEFAULT_SCENARIOS", "FIVE_FLOWS", "NUISANCE_NAMES",
-           "Scenario", "candidate_id", "class_counts", "scenarios_of"]
+__all__ = ["CLASSES", "DEFAULT_FLOWS", "DEFAULT_SCENARIOS", "FIVE_FLOWS", "GENERATORS",
+           "INDEPENDENT_SCENARIOS", "NUISANCE_NAMES", "Scenario", "candidate_id", "class_counts",
+           "scenarios_of"]
+
+GENERATORS: tuple[str, ...] = ("vadsim", "independent")
+"""Who writes a scenario's campaign: vadsim's own simulator and sensor chain
+(:func:`vadsim.campaigns.synthetic.synthetic_campaign`) or the independent generator
+(:mod:`vadsim.blind.independent`)."""
 
 DEFAULT_FLOWS: tuple[float, ...] = (200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0,
                                     600.0, 650.0)
@@ -64,6 +78,12 @@ class Scenario:
     preset, flows, noise_g, duration_s
         How the campaign is recorded: the model, one event per flow (gal/min), sensor noise
         (g) and seconds per event.
+    generator
+        Who writes it (:data:`GENERATORS`).
+    effects
+        The independent generator's effects, ``(name, values)`` in its own form
+        (:data:`vadsim.blind.independent.EFFECTS`). With them, ``truths`` are derived: the
+        library key each effect is scored as, at the nearest member's values.
     """
 
     class_name: str
@@ -73,8 +93,29 @@ class Scenario:
     flows: tuple[float, ...] = DEFAULT_FLOWS
     noise_g: float = 0.3
     duration_s: float = 8.0
+    generator: str = "vadsim"
+    effects: tuple[tuple[str, Mapping[str, float]], ...] = ()
 
     def __post_init__(self) -> None:
+        if self.generator not in GENERATORS:
+            raise ValueError(f"scenario generator {self.generator!r}: choose from "
+                             f"{', '.join(GENERATORS)}")
+        if self.effects and self.generator != "independent":
+            raise ValueError("scenario effects are written by the independent generator "
+                             "only (generator='independent')")
+        effects = tuple((str(n), MappingProxyType({k: float(v) for k, v in dict(vals).items()}))
+                        for n, vals in self.effects)
+        unknown_effects = [n for n, _ in effects if n not in EFFECTS]
+        if unknown_effects:
+            raise ValueError(f"scenario effects {unknown_effects}: choose from "
+                             f"{', '.join(EFFECTS)}")
+        object.__setattr__(self, "effects", effects)
+        if self.generator == "independent" and "theta0" in dict(self.nuisance):
+            raise ValueError("the independent generator takes the phase at rest from MODEL.md "
+                             "(beta (x2 - x3) + psi); a theta0 nuisance cannot be written")
+        if effects and not self.truths:
+            object.__setattr__(self, "truths", tuple(
+                nearest_library(n, v, self.flows)[:2] for n, v in effects))
         truths = tuple((str(k), MappingProxyType({n: float(v) for n, v in dict(vals).items()}))
                        for k, vals in self.truths)
         object.__setattr__(self, "truths", truths)
@@ -105,6 +146,24 @@ class Scenario:
         """No missing physics (nuisance truths may still be set)."""
         return not self.truths
 
+    @property
+    def library_point(self) -> bool:
+        """The truth is a point of the candidate library (every vadsim scenario; an
+        independent one whose effects are all exact members): the regret can evaluate it."""
+        return all(nearest_library(n, v, self.flows)[2] for n, v in self.effects)
+
+    def independent_spec(self, duration_s: float | None = None,
+                         settle_cycles: float = 100.0) -> IndependentSpec:
+        """What the independent generator writes for this scenario."""
+        if self.generator != "independent":
+            raise ValueError(f"scenario of class {self.class_name} is written by "
+                             f"{self.generator}, not the independent generator")
+        return IndependentSpec(preset=self.preset, flows=self.flows, effects=self.effects,
+                               wob_scale=self.nuisance.get("wob_scale", 1.0),
+                               noise_g=self.noise_g,
+                               duration_s=duration_s or self.duration_s,
+                               settle_cycles=settle_cycles)
+
     def nuisance_change(self) -> ModelChange:
         """The change of the nuisance truths alone: WOB scaled, excitation phase at rest."""
         wob = self.nuisance.get("wob_scale", 1.0)
@@ -114,7 +173,11 @@ class Scenario:
     def change(self, library: Mapping[str, _Candidate] | None = None) -> ModelChange:
         """The recording model's change: every truth's ``library[key].change(values)``
         combined with the nuisance change. ``library`` defaults to
-        :data:`vadsim.fit.candidates.CANDIDATES`."""
+        :data:`vadsim.fit.candidates.CANDIDATES`. Not for an independent scenario: its
+        effects are not model changes of vadsim."""
+        if self.generator != "vadsim":
+            raise ValueError(f"scenario of class {self.class_name} is written by the "
+                             f"{self.generator} generator: it has no vadsim model change")
         if library is None:
             from vadsim.fit.candidates import CANDIDATES
 
@@ -134,7 +197,10 @@ class Scenario:
                            for k, v in self.truths],
                 "nuisance": dict(self.nuisance), "preset": self.preset,
                 "flows": list(self.flows), "noise_g": self.noise_g,
-                "duration_s": self.duration_s}
+                "duration_s": self.duration_s, "generator": self.generator,
+                **({"effects": [{"name": n, "values": dict(v)} for n, v in self.effects],
+                    "library_point": self.library_point}
+                   if self.generator == "independent" else {})}
 
 
 CLASSES: dict[str, str] = {
@@ -149,6 +215,15 @@ CLASSES: dict[str, str] = {
     "rc_bit": "the 7in RC bit (preset 7in-rc): a null and two effects",
     "five_events": "five events (250-650 gal/min): a null and two effects",
     "noise_1g": "sensor noise 1 g instead of 0.3 g: a null and two effects",
+    "indep_null": "independent generator: two nulls and one with the WOB reading x0.9",
+    "indep_excitation": "independent generator: the flow force Fo factor (Q/400)^p, a "
+                        "library member (excitation_amplitude) written apart",
+    "indep_hydraulic": "independent generator: a nozzle-law force c Q^2 with a smooth onset "
+                       "on the anvil (scored as hydraulic_force[anvil])",
+    "indep_friction": "independent generator: Stribeck friction anvil-housing, algebraic "
+                      "regularisation (scored as anvil_friction)",
+    "indep_contact": "independent generator: a Hertzian impact face k d^1.5, outside the "
+                     "families (scored as contact_law, identification only)",
 }
 """Classes of the default benchmark and what each tests."""
 
@@ -158,7 +233,7 @@ _HYD = {"f_ref": 60.0, "n": 2.0}
 # leave the 1024 Hz records as the base model's (RMS z <= 0.5 at nearly every event, as a
 # null): the rock contact is stiff, so they only change the static load. A truth no record
 # shows cannot be scored.
-DEFAULT_SCENARIOS: tuple[Scenario, ...] = (
+_VADSIM_SCENARIOS: tuple[Scenario, ...] = (
     *(Scenario("null") for _ in range(3)),
     Scenario("nuisance_null", nuisance={"wob_scale": 0.9}),
     Scenario("nuisance_null", nuisance={"wob_scale": 1.1}),
@@ -198,7 +273,40 @@ DEFAULT_SCENARIOS: tuple[Scenario, ...] = (
     Scenario("noise_1g", (("anvil_friction", {"force": 150.0}),), noise_g=1.0),
     Scenario("noise_1g", (("hydraulic_force[anvil]", _HYD),), noise_g=1.0),
 )
-"""The default benchmark: 32 campaigns in 9 classes (:data:`CLASSES`)."""
+"""The campaigns vadsim writes itself: 32 in 9 classes."""
+
+
+def _indep(class_name: str, *effects: tuple[str, Mapping[str, float]],
+           wob_scale: float = 1.0) -> Scenario:
+    return Scenario(class_name, generator="independent", effects=effects,
+                    nuisance={"wob_scale": wob_scale} if wob_scale != 1.0 else {})
+
+
+INDEPENDENT_SCENARIOS: tuple[Scenario, ...] = (
+    _indep("indep_null"),
+    _indep("indep_null"),
+    _indep("indep_null", wob_scale=0.9),
+    # the issue's case: Fo (Q/400)^0.5, far from the calibrated nuisance
+    _indep("indep_excitation", ("excitation_power", {"factor": 1.0, "p": 0.5})),
+    _indep("indep_excitation", ("excitation_power", {"factor": 1.25, "p": 0.0})),
+    _indep("indep_excitation", ("excitation_power", {"factor": 0.85, "p": -0.6})),
+    _indep("indep_hydraulic", ("hydraulic_quadratic", {"f400": 60.0, "q_on": 350.0,
+                                                       "width": 50.0})),
+    _indep("indep_hydraulic", ("hydraulic_quadratic", {"f400": 45.0, "q_on": 450.0,
+                                                       "width": 40.0})),
+    _indep("indep_friction", ("friction_stribeck", {"force": 100.0, "static": 160.0,
+                                                    "v_s": 0.05, "v0": 0.005})),
+    _indep("indep_friction", ("friction_stribeck", {"force": 140.0, "static": 200.0,
+                                                    "v_s": 0.1, "v0": 0.01})),
+    _indep("indep_contact", ("hertz_contact", {"stiffness": 1.0, "damping": 0.2})),
+    _indep("indep_contact", ("hertz_contact", {"stiffness": 2.0, "damping": 0.4})),
+)
+"""The independent generator's 12 campaigns (classes ``indep_*``): 10 events over
+:data:`DEFAULT_FLOWS`, 0.3 g noise, 8 s records, the 7in CDE tool."""
+
+DEFAULT_SCENARIOS: tuple[Scenario, ...] = (*_VADSIM_SCENARIOS, *INDEPENDENT_SCENARIOS)
+"""The default benchmark: 44 campaigns in 14 classes (:data:`CLASSES`), 12 of them written by
+the independent generator."""
 
 
 def class_counts(scenarios: Sequence[Scenario] = DEFAULT_SCENARIOS) -> dict[str, int]:

@@ -95,10 +95,11 @@ def normalise_truth(t: Mapping[str, Any]) -> dict[str, Any]:
     ``key`` and ``values``) becomes class "default"."""
     if "truths" in t:
         return {"class": t.get("class", "default"), "truths": list(t["truths"]),
-                "nuisance": dict(t.get("nuisance") or {})}
+                "nuisance": dict(t.get("nuisance") or {}),
+                "library_point": bool(t.get("library_point", True))}
     truths = [] if t["id"] == "none" else [{"key": t.get("key", t["id"]), "id": t["id"],
                                             "values": dict(t.get("values") or {})}]
-    return {"class": "default", "truths": truths, "nuisance": {}}
+    return {"class": "default", "truths": truths, "nuisance": {}, "library_point": True}
 
 
 def _parameter_errors(truths: Sequence[Mapping[str, Any]], found: set[str],
@@ -175,6 +176,7 @@ def _row(name: str, r: dict[str, Any], t: dict[str, Any]) -> dict[str, Any]:
         "regret": None if r["regret"] is None else float(r["regret"]["regret"]),
         "regret_noise": None if r["regret"] is None else float(r["regret"]["noise"]),
         "search_failure": None if r["regret"] is None else bool(r["regret"]["search_failure"]),
+        "regret_na": not t["library_point"],
     }
 
 

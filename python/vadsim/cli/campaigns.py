@@ -49,7 +49,8 @@ def add_parsers(sub: Subparsers, parents: Parents) -> None:
         "blind", help="blind benchmark of diagnose on classes of campaigns with concealed physics",
         description="Write campaigns (RECORDINGS.md format) in classes -- nulls, a nuisance "
         "(WOB reading, excitation phase at rest) only, an effect under a nuisance, pairs of "
-        "effects, generic effects, one-sensor effects, the RC bit, five events, 1 g noise "
+        "effects, generic effects, one-sensor effects, the RC bit, five events, 1 g noise, "
+        "and indep_* classes written by an independent simulator and sensor chain "
         "(--list) -- through the sensor chain with noise, under neutral shuffled names; "
         "diagnose each from disk without the truth; score per class and overall "
         "(identification, variants, false alarms, parameter error, held-out improvement, "

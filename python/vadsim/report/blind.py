@@ -113,7 +113,7 @@ def _found_text(r: dict[str, Any]) -> str:
 
 def _regret_text(r: dict[str, Any]) -> str:
     if r.get("regret") is None:
-        return "-"
+        return "n/a" if r.get("regret_na") else "-"
     flag = " **(search failure)**" if r["search_failure"] else ""
     return f"{r['regret']:.0f} ({r['regret_noise']:.0f}){flag}"
 
