@@ -99,8 +99,8 @@ def test_a_model_that_misses_physics_lies_far_above_its_own_draws(null_evaluator
     ev = null_evaluator
     wrong = CANDIDATES["hydraulic_force[anvil]"].change({"f_ref": 64.0, "n": 2.0})
     draws = rms_draws(ev, wrong, n_boot=8)
-    assert np.median(draws) < 1.0
-    assert _rms(ev, "hydraulic", wrong) > 1.5 * np.quantile(draws, 0.95)
+    assert draws.min() < 0.5
+    assert _rms(ev, "hydraulic", wrong) > 1.5 * np.quantile(draws, 0.975)
 
 
 def test_rms_draws_refuses_bad_sizes_by_name(null_evaluator):
