@@ -13,7 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -42,7 +42,7 @@ from vadsim.fit.diagnosis.policy import (
 )
 from vadsim.fit.diagnosis.result import Diagnosis, jsonable
 from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
-from vadsim.fit.hypothesis_fit import fit_hypothesis
+from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
 from vadsim.model.cache import ResultCache, default_cache
 from vadsim.model.presets import Preset
@@ -160,20 +160,15 @@ def diagnose(
         chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                             if review else (sel.chosen, []))
         final = chosen or none
-        noise = None
-        if chosen is None and final.heldout_rms <= pol.max_rms and pol.noise_draws:
-            say(f"'none' against {pol.noise_draws} campaigns it writes itself")
-            noise = within_noise(final, rms_draws(ev, final.hypothesis.change(final.point),
-                                                  n_boot=pol.noise_draws), pol)
-        flows = {e.id: e.flow_gpm for e in camp.events}
+        noise = _noise_check(ev, chosen, final, pol, say)
         baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),
                                     strict=True)) for e in eids}
         return Diagnosis(
             campaign=camp, preset=settings.preset, located=found,
             located_events=found_events, uncalibrated=plain, baseline=base, steps=sel.steps,
             chosen=chosen, verdict=verdict(chosen, final, pol, noise), noise=noise,
-            unexplained=unexplained(final, flows, pol, noise), recorded=ev.targets,
-            keys=dict(ev.keys), baseline_sim=baseline_sim, folds=folds,
+            unexplained=unexplained(final, {e.id: e.flow_gpm for e in camp.events}, pol, noise),
+            recorded=ev.targets, keys=dict(ev.keys), baseline_sim=baseline_sim, folds=folds,
             settings=dict(cycles=cycles, analyse_cycles=analyse_cycles, phases=phases,
                           block_fraction=block_fraction, review=review, candidates=keys,
                           nuisance=[f"{s.name}={s.lo:g}:{s.hi:g}" for s in nuis],
@@ -183,6 +178,17 @@ def diagnose(
             elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals + coarse_ev.n_evals,
             pairs=sel.pairs, review=reviewed, widened_nuisance=widened,
         )
+
+
+def _noise_check(ev: CampaignEvaluator, chosen: HypothesisFit | None, final: HypothesisFit,
+                 pol: Policy, say: Callable[[str], None]) -> dict[str, Any] | None:
+    """Whether "none" lies within the noise (:func:`within_noise`), where nothing was chosen
+    and "none" holds out within ``max_rms``; None where that is not asked."""
+    if chosen is not None or final.heldout_rms > pol.max_rms or not pol.noise_draws:
+        return None
+    say(f"'none' against {pol.noise_draws} campaigns it writes itself")
+    return within_noise(final, rms_draws(ev, final.hypothesis.change(final.point),
+                                         n_boot=pol.noise_draws), pol)
 
 
 def _policy(policy: Policy | None, **given: Any) -> Policy:
