@@ -139,21 +139,18 @@ def write_campaigns(folder: str | os.PathLike[str],
         if name in truth and (path / "campaign.toml").is_file():
             continue
         say(f"writing {name}")
-        truth_entry = {**sc.describe(), "duration_s": duration_s or sc.duration_s}
         if sc.generator == "independent":
             write_independent_campaign(path, sc.independent_spec(
                 duration_s, settle_cycles=cycles - analyse_cycles), seed=int(seeds[slot]),
                 name=name)
-            truth[name] = truth_entry
-            _write_json(truth_path, truth)
-            continue
-        camp = synthetic_campaign(sc.preset, sc.flows, change=sc.change(library),
-                                  cycles=cycles, analyse_cycles=analyse_cycles,
-                                  duration_s=duration_s or sc.duration_s, noise_g=sc.noise_g,
-                                  seed=int(seeds[slot]), name=name)
-        camp.description = "blind benchmark campaign"
-        save_campaign(camp, path)
-        truth[name] = truth_entry
+        else:
+            camp = synthetic_campaign(sc.preset, sc.flows, change=sc.change(library),
+                                      cycles=cycles, analyse_cycles=analyse_cycles,
+                                      duration_s=duration_s or sc.duration_s,
+                                      noise_g=sc.noise_g, seed=int(seeds[slot]), name=name)
+            camp.description = "blind benchmark campaign"
+            save_campaign(camp, path)
+        truth[name] = {**sc.describe(), "duration_s": duration_s or sc.duration_s}
         _write_json(truth_path, truth)
     return sorted(paths)
 

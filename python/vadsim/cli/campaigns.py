@@ -180,7 +180,8 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
                     help="held-out RMS z above which the verdict is 'unexplained' (2)")
     dg.add_argument("--noise-draws", type=int, default=20, metavar="N",
                     help="campaigns the base model writes itself before 'none' is given: "
-                    "'none' only within 95 %% of their RMS z (20; 0: on --max-rms alone)")
+                    "'none' only up to the 97.5 %% quantile of their RMS z, the upper edge of "
+                    "their 95 %% band (20; 0: on --max-rms alone)")
     dg.add_argument("--no-review", action="store_true",
                     help="skip the review of the chosen model (each effect refitted as its "
                     "variants, and each one not needed on top of the others dropped)")

@@ -20,10 +20,9 @@ quantile of those rises is the threshold.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 
@@ -39,10 +38,11 @@ from vadsim.compare import (
     recorded_features,
     run_event,
 )
-from vadsim.model.change import ModelChange
+from vadsim.model.change import Measurement, ModelChange
 from vadsim.model.result import G, SimulationResult
 from vadsim.model.simulate import SolverError
 from vadsim.model.steady import steady_run
+from vadsim.signals.features import Feature
 from vadsim.signals.fold_features import fold_periods
 
 __all__ = ["BOOTSTRAP_RUNS", "cost_rises", "rms_draws"]
@@ -112,14 +112,19 @@ def cost_rises(evaluator: CampaignEvaluator, change: ModelChange,
     n_boot, noise_g, seed, n_runs
         Campaigns drawn; the sensors' noise (g RMS); the random seed; distinct runs per event.
     """
-    if not (isinstance(n_boot, int) and n_boot >= 2):
-        raise ValueError(f"n_boot = {n_boot!r} must be an integer >= 2")
+    _check_draws(evaluator, n_boot)
     if not (noise_g >= 0 and math.isfinite(noise_g)):
         raise ValueError(f"noise_g = {noise_g!r} must be a finite number >= 0")
+    rng = np.random.default_rng(seed)
+    eids = evaluator.event_ids
+    runs = {e: _runs(evaluator, change, e, n_runs) for e in eids}
+    seconds = {e: _recording_s(evaluator, e) for e in eids}
     rises: dict[str, list[float]] = {g: [] for g in groups}
-    for targets in _draws(evaluator, change, n_boot, noise_g, seed, n_runs):
+    for b in range(n_boot):
         z_parts: list[list[np.ndarray]] = [[] for _ in probes]
-        for e, target in targets.items():
+        for e in eids:
+            target = _drawn_features(evaluator, runs[e][b % len(runs[e])], e, rng, noise_g,
+                                     seconds[e])
             for i, sims in enumerate(probes):
                 z_parts[i].append(evaluator.compared(sims.get(e), e, target))
         costs = np.array([cost(np.concatenate(p)) for p in z_parts])
@@ -128,28 +133,26 @@ def cost_rises(evaluator: CampaignEvaluator, change: ModelChange,
     return {g: np.array(v) for g, v in rises.items()}
 
 
-def _draws(evaluator: CampaignEvaluator, change: ModelChange, n_boot: int, noise_g: float,
-           seed: int, n_runs: int) -> Iterator[dict[str, Any]]:
-    """``n_boot`` campaigns the model ``change`` writes: per draw, each event's recorded
-    features (its run, at a random sampling phase, with noise, as long as its recording)."""
+def _check_draws(evaluator: CampaignEvaluator, n_boot: int) -> None:
+    if isinstance(n_boot, bool) or not isinstance(n_boot, int) or n_boot < 2:
+        raise ValueError(f"n_boot = {n_boot!r} must be an integer >= 2")
     if evaluator.resolution != "sensor":
         raise ValueError("a bootstrap draws recordings: it needs resolution = 'sensor'")
-    rng = np.random.default_rng(seed)
-    eids = evaluator.event_ids
-    runs = {e: _runs(evaluator, change, e, n_runs) for e in eids}
-    seconds = {e: _recording_s(evaluator, e) for e in eids}
-    for b in range(n_boot):
-        targets = {}
-        for e in eids:
-            ev = evaluator.events[e]
-            rec = record_run(runs[e][b % len(runs[e])], evaluator.campaign.sensors,
-                             event_id=e, flow_gpm=ev.flow_gpm, wob_klbf=ev.wob_klbf,
-                             phase=float(rng.uniform()), noise_g=noise_g, rng=rng,
-                             duration_s=seconds[e])
-            targets[e] = recorded_features(evaluator.campaign, rec,
-                                           evaluator.settings.f_exc_hz(ev.flow_gpm),
-                                           folded=evaluator.folded)
-        yield targets
+
+
+def _drawn_features(evaluator: CampaignEvaluator, run: SimulationResult, eid: str,
+                    rng: np.random.Generator, noise_g: float | Mapping[str, float],
+                    seconds: float, *, measurement: Measurement | None = None,
+                    fine_rate_hz: float | None = None) -> dict[str, Feature]:
+    """One drawn recording of event ``eid`` from ``run`` (a random sampling phase, then
+    noise, both from ``rng``; ``seconds`` long), as the evaluator reads a recording."""
+    ev = evaluator.events[eid]
+    rec = record_run(run, evaluator.campaign.sensors, event_id=eid, flow_gpm=ev.flow_gpm,
+                     wob_klbf=ev.wob_klbf, phase=float(rng.uniform()), noise_g=noise_g,
+                     rng=rng, duration_s=seconds, measurement=measurement,
+                     fine_rate_hz=fine_rate_hz)
+    return recorded_features(evaluator.campaign, rec, evaluator.settings.f_exc_hz(ev.flow_gpm),
+                             folded=evaluator.folded)
 
 
 STRETCHES = 4
@@ -227,10 +230,7 @@ def rms_draws(evaluator: CampaignEvaluator, change: ModelChange, *, n_boot: int 
     n_boot, seed
         Campaigns drawn (>= 2); the random seed.
     """
-    if isinstance(n_boot, bool) or not isinstance(n_boot, int) or n_boot < 2:
-        raise ValueError(f"n_boot = {n_boot!r} must be an integer >= 2")
-    if evaluator.resolution != "sensor":
-        raise ValueError("rms_draws draws recordings: it needs resolution = 'sensor'")
+    _check_draws(evaluator, n_boot)
     eids = evaluator.event_ids
     # one generator per event, seeded by its place: the draws do not depend on which thread
     # ran which event first
@@ -257,13 +257,9 @@ def _event_draws(evaluator: CampaignEvaluator, change: ModelChange, eid: str, n_
     seconds = _recording_s(evaluator, eid)
     measured: dict[tuple[int, ...], EventSimulation] = {}
     for b in range(n_boot):
-        rec = record_run(_stretch(got[1], seconds, rng), camp.sensors, event_id=eid,
-                         flow_gpm=ev.flow_gpm, wob_klbf=ev.wob_klbf,
-                         phase=float(rng.uniform()), noise_g=evaluator.noise_g, rng=rng,
-                         duration_s=seconds, measurement=change.measurement,
-                         fine_rate_hz=fine_rate_hz(camp))
-        target = recorded_features(camp, rec, evaluator.settings.f_exc_hz(ev.flow_gpm),
-                                   folded=evaluator.folded)
+        target = _drawn_features(evaluator, _stretch(got[1], seconds, rng), eid, rng,
+                                 evaluator.noise_g, seconds, measurement=change.measurement,
+                                 fine_rate_hz=fine_rate_hz(camp))
         periods = tuple(sorted(fold_periods(target)))
         if periods not in measured:
             measured[periods] = measure_event(

@@ -94,9 +94,9 @@ def diagnosis_summary(diag: Diagnosis) -> str:
 def verdict_text(diag: Diagnosis) -> str:
     """One sentence: what is missing, or that nothing is, or what is left unexplained."""
     b, f = diag.none_fit.heldout_rms, diag.final.heldout_rms
+    which = "nominal" if diag.none_fit is diag.uncalibrated else "calibrated"
+    noise = diag.noise
     if diag.verdict == "none":
-        which = "nominal" if diag.none_fit is diag.uncalibrated else "calibrated"
-        noise = diag.noise
         within = (f"; RMS z {noise['rms']:.2f}, within the noise: at most "
                   f"{noise['band']:.2f}, the {100 * noise['quantile']:g} % quantile of "
                   f"{noise['draws']} campaigns it writes itself" if noise else "")
@@ -109,20 +109,16 @@ def verdict_text(diag: Diagnosis) -> str:
         what += edges_text(diag.chosen)
     if diag.verdict == "explained":
         return f"missing physics: {what}"
-    noise = diag.noise
-    if diag.chosen is None and noise is not None and not noise["within"]:
-        events = "; ".join(f"{u['flow_gpm']:g} gal/min ({', '.join(u['worst'])})"
-                           for u in diag.unexplained[:4])
-        located = "; ".join(m.describe() for m in diag.located[:3])
-        return (f"a mismatch beyond the noise that no candidate explains: the "
-                f"{'calibrated' if diag.none_fit is diag.baseline else 'nominal'} base model's "
-                f"RMS z {noise['rms']:.2f} on the campaign, above {noise['band']:.2f}, the "
-                f"{100 * noise['quantile']:g} % quantile of {noise['draws']} campaigns it "
-                f"writes itself (median {noise['median']:.2f}); held-out RMS "
-                f"{b:.2f}" + (f"; worst at {events}" if events else "")
-                + (f"; located: {located}" if located else ""))
     where = "; ".join(f"{u['flow_gpm']:g} gal/min ({', '.join(u['worst'])})"
                       for u in diag.unexplained[:4])
+    if diag.chosen is None and noise is not None and not noise["within"]:
+        located = "; ".join(m.describe() for m in diag.located[:3])
+        return (f"a mismatch beyond the noise that no candidate explains: the {which} base "
+                f"model's RMS z {noise['rms']:.2f} on the campaign, above {noise['band']:.2f}, "
+                f"the {100 * noise['quantile']:g} % quantile of {noise['draws']} campaigns it "
+                f"writes itself (median {noise['median']:.2f}); held-out RMS "
+                f"{b:.2f}" + (f"; worst at {where}" if where else "")
+                + (f"; located: {located}" if located else ""))
     return (f"unexplained mismatch at {where or 'several events'}: {what}; held-out RMS "
             f"{f:.2f} > {diag.settings['max_rms']:g}")
 

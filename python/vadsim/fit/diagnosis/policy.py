@@ -217,9 +217,10 @@ def within_noise(final: HypothesisFit, draws: np.ndarray, policy: Policy) -> dic
     """Whether ``final`` (the model "none" stands for) lies within the noise: its RMS
     standardised residual on the campaign (every event, at its fitted point) against the
     ``policy.noise_quantile`` quantile of its RMS on the campaigns it writes itself
-    (``draws``, :func:`~vadsim.fit.bootstrap.rms_draws`). Both are at the model's own point,
-    so a right model sits inside the band by construction (its fit only lowers its RMS); the
-    held-out RMS would need every draw refitted on every fold."""
+    (``draws``, :func:`~vadsim.fit.bootstrap.rms_draws`). Both are at the model's own point:
+    its fit only lowers its RMS on the campaign, so a right model sits inside the band at
+    least as often as the quantile says; the held-out RMS would need every draw refitted on
+    every fold."""
     rms = math.sqrt(final.rss / final.n) if final.n else math.nan
     band = float(np.quantile(draws, policy.noise_quantile))
     return {"rms": rms, "band": band, "quantile": policy.noise_quantile,
