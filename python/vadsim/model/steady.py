@@ -48,14 +48,15 @@ def window_drift(r: SimulationResult) -> float:
     ev = r.events
     if half <= 0 or ev.empty:
         return 0.0
-    onsets = ev[ev["kind"] == "onset"]
-    worst = 0.0
-    for _, g in onsets.groupby("surface"):
-        t = g["time_s"].to_numpy(float)
-        first = np.count_nonzero((t >= w0) & (t < mid)) / half
-        second = np.count_nonzero((t >= mid) & (t <= w1)) / half
-        worst = max(worst, abs(second - first))
-    return float(worst)
+    # counted per surface code with numpy: a pandas groupby cost 2 ms, a tenth of a warm
+    # started run's measurement in a diagnosis
+    onset = (ev["kind"] == "onset").to_numpy()
+    t = ev["time_s"].to_numpy(float)[onset]
+    surface = ev["surface"].cat.codes.to_numpy()[onset]
+    n = len(ev["surface"].cat.categories)
+    first = np.bincount(surface[(t >= w0) & (t < mid)], minlength=n) / half
+    second = np.bincount(surface[(t >= mid) & (t <= w1)], minlength=n) / half
+    return float(np.max(np.abs(second - first), initial=0.0))
 
 
 def steady_run(settings: RunSettings, flow_gpm: float, *, wob_klbf: float | None = None,
