@@ -38,7 +38,8 @@ from vadsim.fit.diagnosis.policy import (
 from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.scoring import aicc
 
-__all__ = ["Selection", "forward_selection", "refits_without", "rescored", "review"]
+__all__ = ["Selection", "every_single_fitted", "forward_selection", "refits_without",
+           "rescored", "review"]
 
 @dataclass
 class Selection:
@@ -88,6 +89,9 @@ def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
                             say, tick)
         # a probe-only fit (a subset of events, shorter runs) is ranked but never chosen
         fits = sorted(fits, key=lambda f: (f.probe, vanishes(f), f.score))
+        if (step == 0 and not passes(fits[0], bar, current, policy)
+                and any(f.probe for f in fits)):
+            fits = every_single_fitted(ctx, ev, coarse_ev, current, fits, say, tick)
         if step == 0:
             solo = {f.keys[-1]: f for f in fits}
         else:
@@ -128,6 +132,30 @@ def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
         chosen_ids = set(current.ids)
         pool = [f.keys[-1] for f in fits[1:] if CANDIDATES[f.keys[-1]].id not in chosen_ids]
     return Selection(steps, current if current is not base else None, tried)
+
+
+def every_single_fitted(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                        current: HypothesisFit, fits: list[HypothesisFit],
+                        say: Callable[[str], None], tick: Tick) -> list[HypothesisFit]:
+    """A first step in which no candidate passed, with every candidate it only probed
+    fitted fully (from its null and the nominal nuisance values, not from its probe's
+    point), ranked again: no effect is looked for in pairs before each single one has had
+    its full search.
+
+    Why: a probe is a 5 x 5 grid on a subset of events, and a flow-dependent effect's
+    basin can lie between its points, where the training cost is a landscape of cliffs (a
+    folded waveform's bins flip by tens of spreads when an impact moves by a bin). Measured
+    on an independent campaign whose excitation grows as (Q/400)^0.5 (excitation_amplitude
+    factor 1, p 0.5): the truth costs 63 on the training events, the nearest probe points
+    (1, 0) and (1, 0.75) cost 5,942 and 13,633, the probe cut its start's cost by 1.8 %
+    (below the 3 % a full fit needs), and the diagnosis went on to screen 143 pairs for 30
+    min and ended "unexplained" at held-out RMS 2.10; the full fit alone reached factor
+    0.998, p 0.513, held out at 0.18, in 63 s."""
+    probed = [f for f in fits if f.probe]
+    say(f"no candidate passes: fitting the {len(probed)} only probed fully before any pair")
+    full = fit_all(ctx, [job(current, f.keys[-1]) for f in probed], ev, coarse_ev, say, tick)
+    return sorted([f for f in fits if not f.probe] + full,
+                  key=lambda f: (f.probe, vanishes(f), f.score))
 
 
 def rescored(current: HypothesisFit, fits: list[HypothesisFit],
