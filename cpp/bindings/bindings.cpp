@@ -235,6 +235,9 @@ void bind_results(py::module_& m) {
       .def_readonly("steady", &RunResult::steady)
       .def_readonly("orbit_t", &RunResult::orbit_t)
       .def_readonly("orbit_a", &RunResult::orbit_a)
+      .def_readonly("orbit_corner_t", &RunResult::orbit_corner_t)
+      .def_readonly("orbit_corner_before", &RunResult::orbit_corner_before)
+      .def_readonly("orbit_corner_after", &RunResult::orbit_corner_after)
       .def_readonly("orbit_period_s", &RunResult::orbit_period_s)
       .def_property_readonly("event_t",
                              [](const RunResult& r) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace vadsim {
 
@@ -160,6 +161,28 @@ void tabulate(const Model& model, const RunOptions& opts, const Orbit& orbit, Ru
     model.evaluate(t, opts.flow_gpm, y, modes, ev);
     r.orbit_t[j] = t;
     r.orbit_a.row(j) = ev.acc.transpose();
+  }
+  // The corners: a boundary between two pieces integrated with different contact modes.
+  const auto& pieces = orbit.pieces();
+  const double t_first = orbit.t0(), t_last = orbit.t0() + orbit.period();
+  std::vector<std::size_t> corners;
+  for (std::size_t p = 0; p + 1 < pieces.size(); ++p)
+    if (pieces[p].modes != pieces[p + 1].modes && pieces[p].t_hi > t_first &&
+        pieces[p].t_hi < t_last)
+      corners.push_back(p);
+  const auto n = static_cast<Eigen::Index>(corners.size());
+  r.orbit_corner_t.resize(n);
+  r.orbit_corner_before.resize(n, kDof);
+  r.orbit_corner_after.resize(n, kDof);
+  for (Eigen::Index c = 0; c < n; ++c) {
+    const std::size_t p = corners[static_cast<std::size_t>(c)];
+    const double t = pieces[p].t_hi;
+    r.orbit_corner_t[c] = t;
+    for (int side = 0; side < 2; ++side) {
+      const Orbit::Replay piece(orbit, p + side, 0.0);
+      model.evaluate(t, opts.flow_gpm, piece.interpolate(t), pieces[p + side].modes, ev);
+      (side ? r.orbit_corner_after : r.orbit_corner_before).row(c) = ev.acc.transpose();
+    }
   }
 }
 

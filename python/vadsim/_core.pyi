@@ -208,6 +208,9 @@ class RunResult:
     steady: SteadyInfo
     orbit_t: npt.NDArray[np.float64]
     orbit_a: npt.NDArray[np.float64]
+    orbit_corner_t: npt.NDArray[np.float64]
+    orbit_corner_before: npt.NDArray[np.float64]
+    orbit_corner_after: npt.NDArray[np.float64]
     orbit_period_s: float
     @property
     def event_t(self) -> npt.NDArray[np.float64]: ...

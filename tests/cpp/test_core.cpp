@@ -1714,6 +1714,19 @@ void test_steady_orbit_table() {
     }
     CHECK(off <= n / 200, off, " of ", n, " samples differ by more than 1 % of the range");
   }
+  // A corner at every contact event inside the period, where some acceleration jumps.
+  long inside = 0;
+  const double t0 = autor.orbit_t.size() ? autor.orbit_t[0] : 0.0;
+  for (const auto& e : autor.events)
+    inside += e.surface < kSurfaces && e.t > t0 && e.t < t0 + period;
+  CHECK(autor.orbit_corner_t.size() == inside && inside > 0, autor.orbit_corner_t.size(),
+        " corners for ", inside, " contact events in one period");
+  for (Eigen::Index c = 0; c < autor.orbit_corner_t.size(); ++c) {
+    const double t = autor.orbit_corner_t[c];
+    CHECK(t > t0 && t < t0 + period, "corner at ", t, " outside the period from ", t0);
+    CHECK((autor.orbit_corner_after.row(c) - autor.orbit_corner_before.row(c)).norm() > 0,
+          "no jump at the corner at ", t);
+  }
   const Model mo{Params{}};
   RunOptions o;
   o.flow_gpm = 200;

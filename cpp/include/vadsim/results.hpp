@@ -80,6 +80,13 @@ struct RunResult {
   /// Empty without an orbit.
   Eigen::VectorXd orbit_t;
   RowMat7 orbit_a;
+  /// The orbit's corners: the times inside the period where a contact closes or opens, and the
+  /// accelerations (m/s^2) just before and just after. A Kelvin-Voigt force jumps there, so a
+  /// uniform table alone smears the peak over a spacing; with the corners, interpolation
+  /// between the table and the corners keeps it (vadsim.model.result.Orbit.at).
+  Eigen::VectorXd orbit_corner_t;
+  RowMat7 orbit_corner_before;
+  RowMat7 orbit_corner_after;
   double orbit_period_s = 0;  ///< P = period / f_exc (s); 0 without an orbit
 };
 

@@ -10,6 +10,7 @@ from the checks and the call into the C++ core.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -89,17 +90,23 @@ class SteadyInfo:
 
 @dataclass(frozen=True)
 class Orbit:
-    """One period of a periodic run's steady orbit on a uniform grid.
+    """One period of a periodic run's steady orbit: a uniform grid and the orbit's corners.
 
     ``a[j]`` is the acceleration (m/s^2, 7 bodies) at ``t[j] = start + j * period_s / len(t)``;
     the run repeats it: the acceleration at any later time ``t`` is the orbit's at
-    ``start + (t - start) mod period_s`` (:meth:`at`).
+    ``start + (t - start) mod period_s`` (:meth:`at`). ``corner_t`` are the times inside the
+    period where a contact closes or opens, ``corner_before`` and ``corner_after`` the
+    accelerations just before and just after: a contact force jumps or kinks there, and a
+    uniform grid alone would smear that corner over a spacing.
     """
 
     t: np.ndarray
     a: np.ndarray
     period_s: float
     cycles: int
+    corner_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    corner_before: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
+    corner_after: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
 
     @property
     def start(self) -> float:
@@ -113,19 +120,50 @@ class Orbit:
 
     def at(self, times: np.ndarray, dof: int) -> np.ndarray:
         """Acceleration (g) of body ``dof`` (1..7) at ``times`` (s, at or after the start),
-        by linear interpolation on the periodic grid."""
+        by linear interpolation between the grid's points and the corners (a time exactly at
+        a corner takes the value just after it)."""
         if not 1 <= dof <= 7:
             raise ValueError(f"dof = {dof} must be in 1..7")
         m = self.t.size
         # The grid is uniform over one period: the interval of each time is arithmetic.
         pos = np.asarray(times, dtype=float) - self.start
-        pos *= m / self.period_s
-        i0 = np.floor(pos)
+        pos = np.mod(pos, self.period_s) * (m / self.period_s)
+        i0 = np.minimum(np.floor(pos), m - 1)
         frac = pos - i0
-        i = np.mod(i0.astype(np.int64), m)
+        i = i0.astype(np.int64)
         col = self.a[:, dof - 1] / G
         nxt = np.append(col[1:], col[0])
-        return col[i] + frac * (nxt[i] - col[i])
+        out = col[i] + frac * (nxt[i] - col[i])
+        if self.corner_t.size:
+            # Only the few intervals that hold a corner interpolate on the merged table.
+            has_corner, grid, order, times = self._corner_table
+            sel = np.flatnonzero(has_corner[i])
+            if sel.size:
+                values = np.concatenate([col[grid % m], self.corner_before[:, dof - 1] / G,
+                                         self.corner_after[:, dof - 1] / G])[order]
+                tau = pos[sel] * (self.period_s / m)
+                k = np.minimum(np.searchsorted(times, tau, side="right") - 1, times.size - 2)
+                w = (tau - times[k]) / (times[k + 1] - times[k])
+                out[sel] = values[k] + w * (values[k + 1] - values[k])
+        return out
+
+    @functools.cached_property
+    def _corner_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What :meth:`at` needs near the corners: which grid intervals hold one (a mask); the
+        grid indices of those intervals' ends (m: the next period's first point); the time
+        order of the merged table (those ends, each corner before, each corner after; ties in
+        that order) and its times (s after the start)."""
+        m = self.t.size
+        offset = self.corner_t - self.start
+        cells = np.clip(np.floor(offset * (m / self.period_s)), 0, m - 1).astype(np.int64)
+        has_corner = np.zeros(m, dtype=bool)
+        has_corner[cells] = True
+        grid = np.unique(np.concatenate([cells, cells + 1]))
+        times = np.concatenate([grid * (self.period_s / m), offset, offset])
+        rank = np.concatenate([np.zeros(grid.size), np.ones(offset.size),
+                               np.full(offset.size, 2.0)])
+        order = np.lexsort((rank, times))
+        return has_corner, grid, order, times[order]
 
 
 @dataclass

@@ -407,7 +407,9 @@ def _steady_parts(r: Any, mode: str) -> tuple[SteadyInfo, Orbit | None]:
                       tolerance=float(st.tolerance), window_on_orbit=bool(st.window_on_orbit))
     t = np.asarray(r.orbit_t)
     orbit = (Orbit(t=t, a=np.asarray(r.orbit_a), period_s=float(r.orbit_period_s),
-                   cycles=info.period) if t.size else None)
+                   cycles=info.period, corner_t=np.asarray(r.orbit_corner_t),
+                   corner_before=np.asarray(r.orbit_corner_before),
+                   corner_after=np.asarray(r.orbit_corner_after)) if t.size else None)
     return info, orbit
 
 
