@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "vadsim/errors.hpp"
+#include "vadsim/orbit_table.hpp"
 
 namespace vadsim {
 
@@ -75,10 +76,11 @@ void Recorder::size_grids(const RunOptions& opts, const Horizon& h) {
   sec_ = TimeGrid(0.0, h.period, static_cast<long>(std::floor(opts.cycles * (1 + 1e-12))) + 1);
 }
 
-void Recorder::record_until(double tlim, const Trajectory& segment, const Modes& modes) {
+void Recorder::record_until(double tlim, const Trajectory& segment, const Modes& modes,
+                            bool with_summary) {
   record_section(tlim, segment);
   record_output(tlim, segment, modes);
-  record_summary(tlim, segment, modes);
+  if (with_summary) record_summary(tlim, segment, modes);
 }
 
 Eigen::Map<const State> Recorder::sample(double t, const Trajectory& segment,
@@ -115,18 +117,30 @@ void Recorder::record_output(double tlim, const Trajectory& segment, const Modes
 }
 
 void Recorder::record_summary(double tlim, const Trajectory& segment, const Modes& modes) {
-  auto& sm = r_.summary;
   while (sum_.pending(tlim)) {
     const long k = sum_.take();
     sample(sum_.time(k), segment, modes);
-    const double fi = ev_.fc[kImpact];
-    sm.impulse_mean += fi;
-    sm.impulse_pos += fi > 0 ? fi : 0.0;
-    const long win = static_cast<long>(std::floor(k / per_window_ + 1e-9));
-    if (win < n_windows_) {
-      for (int i = 0; i < kDof; ++i)
-        sm.window_peaks(win, i) = std::max(sm.window_peaks(win, i), std::abs(ev_.acc[i]));
-    }
+    accumulate_summary(k, ev_.acc, ev_.fc[kImpact]);
+  }
+}
+
+void Recorder::record_summary(double tlim, const OrbitTable& table) {
+  OrbitSample s;
+  while (sum_.pending(tlim)) {
+    const long k = sum_.take();
+    table.at(sum_.time(k), s);
+    accumulate_summary(k, s.acc, s.f_impact);
+  }
+}
+
+void Recorder::accumulate_summary(long k, const Vec7& acc, double f_impact) {
+  auto& sm = r_.summary;
+  sm.impulse_mean += f_impact;
+  sm.impulse_pos += f_impact > 0 ? f_impact : 0.0;
+  const long win = static_cast<long>(std::floor(k / per_window_ + 1e-9));
+  if (win < n_windows_) {
+    for (int i = 0; i < kDof; ++i)
+      sm.window_peaks(win, i) = std::max(sm.window_peaks(win, i), std::abs(acc[i]));
   }
 }
 

@@ -1,5 +1,7 @@
 #include "vadsim/steady_state.hpp"
 
+#include "vadsim/orbit_table.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -146,43 +148,29 @@ Eigen::Map<const State> Orbit::Replay::interpolate(double t) const {
 
 namespace {
 
-/// @brief The orbit table of RunOptions::orbit_rate_hz: one period on a uniform grid.
+/// @brief The orbit table of RunOptions::orbit_rate_hz: one period on a uniform grid, and its
+/// corners.
 void tabulate(const Model& model, const RunOptions& opts, const Orbit& orbit, RunResult& r) {
   if (!(opts.orbit_rate_hz > 0)) return;
-  const long m = std::max(1L, std::lround(orbit.period() * opts.orbit_rate_hz));
+  const OrbitTable table(model, opts.flow_gpm, orbit,
+                         std::max(1L, std::lround(orbit.period() * opts.orbit_rate_hz)));
+  const long m = table.size();
   r.orbit_t.resize(m);
   r.orbit_a.resize(m, kDof);
-  State y;
-  Modes modes;
-  Evaluation ev;
   for (long j = 0; j < m; ++j) {
-    const double t = orbit.t0() + orbit.period() * static_cast<double>(j) / static_cast<double>(m);
-    orbit.state_at(t, y, modes);
-    model.evaluate(t, opts.flow_gpm, y, modes, ev);
-    r.orbit_t[j] = t;
-    r.orbit_a.row(j) = ev.acc.transpose();
+    r.orbit_t[j] = orbit.t0() + orbit.period() * static_cast<double>(j) / static_cast<double>(m);
+    r.orbit_a.row(j) = table.grid(j).acc.transpose();
   }
-  // The corners: a boundary between two pieces integrated with different contact modes.
-  const auto& pieces = orbit.pieces();
-  const double t_first = orbit.t0(), t_last = orbit.t0() + orbit.period();
-  std::vector<std::size_t> corners;
-  for (std::size_t p = 0; p + 1 < pieces.size(); ++p)
-    if (pieces[p].modes != pieces[p + 1].modes && pieces[p].t_hi > t_first &&
-        pieces[p].t_hi < t_last)
-      corners.push_back(p);
+  const auto& corners = table.corners();
   const auto n = static_cast<Eigen::Index>(corners.size());
   r.orbit_corner_t.resize(n);
   r.orbit_corner_before.resize(n, kDof);
   r.orbit_corner_after.resize(n, kDof);
   for (Eigen::Index c = 0; c < n; ++c) {
-    const std::size_t p = corners[static_cast<std::size_t>(c)];
-    const double t = pieces[p].t_hi;
-    r.orbit_corner_t[c] = t;
-    for (int side = 0; side < 2; ++side) {
-      const Orbit::Replay piece(orbit, p + side, 0.0);
-      model.evaluate(t, opts.flow_gpm, piece.interpolate(t), pieces[p + side].modes, ev);
-      (side ? r.orbit_corner_after : r.orbit_corner_before).row(c) = ev.acc.transpose();
-    }
+    const auto& corner = corners[static_cast<std::size_t>(c)];
+    r.orbit_corner_t[c] = orbit.t0() + corner.offset;
+    r.orbit_corner_before.row(c) = corner.before.acc.transpose();
+    r.orbit_corner_after.row(c) = corner.after.acc.transpose();
   }
 }
 
@@ -193,6 +181,11 @@ void synthesize_rest(const Model& model, const RunOptions& opts, const Horizon& 
                      RunResult& r) {
   const double period = orbit.period();
   const double t_last = horizon.t_end * (1 + 1e-12);  // grid points at t_end after rounding
+  // The summary grid from a table of one period when that takes fewer model evaluations than
+  // the grid's own remaining points (a short orbit, a long window).
+  const double table_points = kSummaryTableOversampling * period * opts.summary_rate_hz;
+  const bool summary_from_table =
+      opts.summary_rate_hz > 0 && table_points < (horizon.t_end - t_stop) * opts.summary_rate_hz;
   // Whole orbits after the recorded one, each piece replayed at its shifted time: the grids
   // are filled in time order, and points already recorded (up to t_stop) are not pending.
   for (long m = 1;; ++m) {
@@ -203,7 +196,8 @@ void synthesize_rest(const Model& model, const RunOptions& opts, const Horizon& 
       const double hi = pieces[p].t_hi + shift;
       if (hi <= t_stop) continue;
       const Orbit::Replay replay(orbit, p, shift);
-      recorder.record_until(std::min(hi, t_last), replay, pieces[p].modes);
+      recorder.record_until(std::min(hi, t_last), replay, pieces[p].modes,
+                            !summary_from_table);
       if (hi >= t_last) break;
     }
     for (const auto& e : orbit.events()) {
@@ -215,6 +209,9 @@ void synthesize_rest(const Model& model, const RunOptions& opts, const Horizon& 
       if (t <= horizon.t_end) r.events.push_back({t, e.surface, e.kind, e.rel_velocity});
     }
   }
+  if (summary_from_table)
+    recorder.record_summary(
+        t_last, OrbitTable(model, opts.flow_gpm, orbit, std::max(1L, std::lround(table_points))));
   // The final state: where t_end falls on the orbit, as the grids replayed it (the shift
   // that puts t_end in (t0, t0 + P]); at a whole number of cycles, the last section itself.
   const long last = r.poincare.rows() - 1;

@@ -11,6 +11,8 @@
 
 namespace vadsim {
 
+class OrbitTable;
+
 /// @brief The run's time axis, derived once so that the event loop and the recorder agree.
 struct Horizon {
   double f_exc_hz;  ///< excitation frequency (Hz)
@@ -47,8 +49,12 @@ class Recorder {
   Recorder(const Model& model, const RunOptions& opts, const Horizon& horizon, RunResult& r);
 
   /// @brief Record every grid point up to tlim from the current segment, with the contact
-  /// modes it was integrated with.
-  void record_until(double tlim, const Trajectory& segment, const Modes& modes);
+  /// modes it was integrated with; the summary grid's points too unless with_summary is false
+  /// (they stay pending for the overload below).
+  void record_until(double tlim, const Trajectory& segment, const Modes& modes,
+                    bool with_summary = true);
+  /// @brief Record the summary grid's points up to tlim from a periodic orbit's table.
+  void record_summary(double tlim, const OrbitTable& table);
 
   /// @brief Count the window's onsets and turn the impulse sums into means.
   void finish();
@@ -63,6 +69,8 @@ class Recorder {
   void record_section(double tlim, const Trajectory& segment);
   void record_output(double tlim, const Trajectory& segment, const Modes& modes);
   void record_summary(double tlim, const Trajectory& segment, const Modes& modes);
+  /// @brief Add one summary sample (index k) to the impulse sums and its window's peaks.
+  void accumulate_summary(long k, const Vec7& acc, double f_impact);
   /// @brief The state at t; ev_ receives its forces and accelerations.
   Eigen::Map<const State> sample(double t, const Trajectory& segment, const Modes& modes);
 
