@@ -33,6 +33,7 @@ import vadsim.studies.store as vstore
 import vadsim.studies.sweep as vsweep
 import xarray as xr
 from _children import SIGINT_PRELUDE
+from vadsim import _core
 from vadsim.model.presets import get_preset
 from vadsim.model.settings import ExtraSpec, RunSettings
 from vadsim.studies.rows import FEATURES
@@ -1029,7 +1030,13 @@ def test_ctrl_c_keeps_finished_chunks_and_rerun_computes_the_rest(
         order.append(_resume_key(spec))
         if len(order) == n + 1:
             signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
-            release.wait(60)  # still running when the interrupt lands
+            # Still running when the interrupt lands: held until the main thread asks the
+            # runs to stop (the 60 s only catch a hang), then the run sees that request.
+            deadline = time.monotonic() + 60
+            while not _core.interrupt_requested() and not release.is_set():
+                if time.monotonic() > deadline:
+                    break
+                time.sleep(0.01)
         return real(spec)
 
     monkeypatch.setattr(vsweep, "run_point", interrupting)
