@@ -33,7 +33,7 @@ OrbitTable::OrbitTable(const Model& model, double flow_gpm, const Orbit& orbit, 
   Modes modes;
   Evaluation ev;
   for (long j = 0; j < n; ++j) {
-    const double t = t0_ + period_ * static_cast<double>(j) / static_cast<double>(n);
+    const double t = time(j);
     orbit.state_at(t, y, modes);
     evaluate_at(model, flow_gpm, t, y, modes, ev, grid_[static_cast<std::size_t>(j)]);
   }

@@ -158,7 +158,7 @@ void tabulate(const Model& model, const RunOptions& opts, const Orbit& orbit, Ru
   r.orbit_t.resize(m);
   r.orbit_a.resize(m, kDof);
   for (long j = 0; j < m; ++j) {
-    r.orbit_t[j] = orbit.t0() + orbit.period() * static_cast<double>(j) / static_cast<double>(m);
+    r.orbit_t[j] = table.time(j);
     r.orbit_a.row(j) = table.grid(j).acc.transpose();
   }
   const auto& corners = table.corners();

@@ -41,7 +41,11 @@ class OrbitTable {
   long size() const { return static_cast<long>(grid_.size()); }
   double t0() const { return t0_; }
   double period() const { return period_; }
-  /// @brief The value at grid point j, time t0 + j P / m.
+  /// @brief The time (s) of grid point j: t0 + j P / m.
+  double time(long j) const {
+    return t0_ + period_ * static_cast<double>(j) / static_cast<double>(size());
+  }
+  /// @brief The value at grid point j, time(j).
   const OrbitSample& grid(long j) const { return grid_[static_cast<std::size_t>(j)]; }
   const std::vector<Corner>& corners() const { return corners_; }
 

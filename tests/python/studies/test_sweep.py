@@ -1033,9 +1033,8 @@ def test_ctrl_c_keeps_finished_chunks_and_rerun_computes_the_rest(
             # Still running when the interrupt lands: held until the main thread asks the
             # runs to stop (the 60 s only catch a hang), then the run sees that request.
             deadline = time.monotonic() + 60
-            while not _core.interrupt_requested() and not release.is_set():
-                if time.monotonic() > deadline:
-                    break
+            while (not (_core.interrupt_requested() or release.is_set())
+                   and time.monotonic() < deadline):
                 time.sleep(0.01)
         return real(spec)
 
