@@ -31,7 +31,7 @@ from vadsim.signals.fold_features import (
 )
 from vadsim.signals.model_folds import model_fold_features
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, FilteredSignal
-from vadsim.signals.window_features import event_features
+from vadsim.signals.window_features import event_features, phase_features
 
 __all__ = ["FAILED_RESIDUAL", "FAILED_RUN", "FOLDED", "ORBIT_OVERSAMPLING", "WARM_SETTLE_CYCLES",
            "EventSimulation", "WarmStart", "cached_simulation", "fine_rate_hz", "fine_series",
@@ -320,6 +320,15 @@ def _phase_average(per_phase: list[dict[str, Feature]]
     return out, sd
 
 
+def _per_phase_features(sampled: list[dict[str, np.ndarray]],
+                        clipped: list[dict[str, np.ndarray]], rate_hz: float,
+                        f_exc_hz: float) -> list[dict[str, Feature]]:
+    """:func:`event_features` of each phase's samples, all phases in one call."""
+    names = list(sampled[0])
+    return phase_features({n: [p[n] for p in sampled] for n in names}, rate_hz, f_exc_hz,
+                          {n: [c[n] for c in clipped] for n in names})
+
+
 def _model_folded(campaign: Campaign, t: np.ndarray, f_exc_hz: float,
                   filtered: Mapping[str, FilteredSignal],
                   periods: Iterable[int] | None = None,
@@ -407,18 +416,19 @@ def measure_event(
         # checked and low-passed once: every phase and the fold share it
         filtered = {name: FilteredSignal(t, full[name], campaign.sensors[name].lowpass_hz)
                     for name in names}
-        per_phase: list[dict[str, Feature]] = []
+        sampled: list[dict[str, np.ndarray]] = []
+        clipped: list[dict[str, np.ndarray]] = []
         for k in range(phases):
-            sampled, clipped = {}, {}
+            sampled.append({})
+            clipped.append({})
             for name in names:
                 s = campaign.sensors[name]
                 _, a_s, clip = filtered[name].sample(s.rate_hz, s.range_g, k / phases,
                                                      noise.get(name, 0.0), rng)
-                sampled[name], clipped[name] = a_s, clip
+                sampled[k][name], clipped[k][name] = a_s, clip
                 if keep_signals and k == 0:
                     kept[name] = a_s
-            per_phase.append(event_features(sampled, rate, r.f_exc_hz, clipped=clipped))
-        averaged, sd = _phase_average(per_phase)
+        averaged, sd = _phase_average(_per_phase_features(sampled, clipped, rate, r.f_exc_hz))
         sensor_feats.update(averaged)
         phase_sd.update(sd)
         if use_folded(folded):

@@ -138,8 +138,9 @@ def band_rms(
 
     Parameters
     ----------
-    a : numpy.ndarray, shape (n,)
-        Uniformly sampled acceleration, g, finite.
+    a : numpy.ndarray, shape (n,) or (records, n)
+        Uniformly sampled acceleration, g, finite; each row of a 2-D array is a record of its
+        own (the same windows and bands, one FFT for all).
     rate_hz : float
         Sampling rate, Hz.
     bounds : numpy.ndarray of int
@@ -151,7 +152,7 @@ def band_rms(
 
     Returns
     -------
-    numpy.ndarray, shape (n_windows, n_bands)
+    numpy.ndarray, shape (n_windows, n_bands) or (records, n_windows, n_bands)
         RMS of each window in each band, g.
 
     Raises
@@ -160,22 +161,23 @@ def band_rms(
         If a band holds no frequency bin of a window.
     """
     lengths = np.diff(bounds)
-    out = np.empty((lengths.size, len(bands)))
+    lead = a.shape[:-1]
+    out = np.empty((*lead, lengths.size, len(bands)))
     for length in np.unique(lengths):
         rows = np.flatnonzero(lengths == length)
         n = int(length)
         if rows.size > 1 and np.all(np.diff(bounds[rows]) == n):  # back to back: a view
             start = int(bounds[rows[0]])
-            segments = a[start : start + rows.size * n].reshape(rows.size, n)
+            segments = a[..., start : start + rows.size * n].reshape(*lead, rows.size, n)
         else:
-            segments = np.stack([a[bounds[i] : bounds[i] + n] for i in rows])
+            segments = np.stack([a[..., bounds[i] : bounds[i] + n] for i in rows], axis=-2)
         w, w_mean, scale, bins_of = _band_plan(n, float(rate_hz), tuple(bands))
         offset = segments @ w_mean
         # scipy.signal.periodogram's one-sided density, without its per-call overhead
         # (it was a tenth of a diagnosis' feature time)
-        spec = np.fft.rfft((segments - offset[:, np.newaxis]) * w, axis=-1)
+        spec = np.fft.rfft((segments - offset[..., np.newaxis]) * w, axis=-1)
         psd = (spec.real ** 2 + spec.imag ** 2) * scale
-        out[rows] = np.sqrt(psd @ bins_of)
+        out[..., rows, :] = np.sqrt(psd @ bins_of)
     return out
 
 

@@ -43,7 +43,7 @@ from vadsim.signals.labels import (
     window_bounds,
 )
 
-__all__ = ["event_features", "sensor_features"]
+__all__ = ["event_features", "phase_features", "sensor_features"]
 
 _MIN_WINDOWS: int = 2
 # A standard deviation across windows needs at least two of them.
@@ -184,12 +184,19 @@ def _sensor(
         f_exc_hz = finite_positive("f_exc_hz", f_exc_hz)
     band_list = band_edges_for(rate_hz, bands)
     clip = _check_clipped(clipped_arg, clipped, a.size)
+    bounds = _bounds(arg, a.size, rate_hz, window_s)
+    return _sensor_rows(name, a[np.newaxis], rate_hz, f_exc_hz, bounds, band_list,
+                        clip[np.newaxis])[0]
 
-    bounds = window_bounds(a.size, rate_hz, window_s)
+
+def _bounds(arg: str, size: int, rate_hz: float, window_s: float) -> np.ndarray:
+    """The full windows of ``size`` samples; ValueError (naming ``arg``) for fewer than two or
+    a window too short for a spectrum."""
+    bounds = window_bounds(size, rate_hz, window_s)
     n_windows = bounds.size - 1
     if n_windows < _MIN_WINDOWS:
         raise ValueError(
-            f"{arg}: {a.size} samples at {rate_hz:g} Hz hold {max(n_windows, 0)} full window(s) "
+            f"{arg}: {size} samples at {rate_hz:g} Hz hold {max(n_windows, 0)} full window(s) "
             f"of {window_s:g} s; need at least {_MIN_WINDOWS} for a spread"
         )
     if np.min(np.diff(bounds)) < _MIN_WINDOW_SAMPLES:
@@ -197,36 +204,62 @@ def _sensor(
             f"window_s: {window_s:g} s at {rate_hz:g} Hz holds fewer than "
             f"{_MIN_WINDOW_SAMPLES} samples"
         )
+    return bounds
+
+
+def _sensor_rows(
+    name: str,
+    a: np.ndarray,
+    rate_hz: float,
+    f_exc_hz: float | None,
+    bounds: np.ndarray,
+    band_list: Sequence[tuple[float, float]],
+    clip: np.ndarray,
+    sizes: Sequence[int] | None = None,
+) -> list[_SensorResult]:
+    """The features of each row of ``a`` (shape (rows, n), checked; ``clip`` likewise), one
+    record each: the window reductions and the spectra of all rows at once.
+
+    Why rows: a measurement samples one run at several phases (:func:`vadsim.compare.
+    measure_event`), and a row at a time the per-call overhead of the reductions and the
+    FFT was most of a diagnosis' feature time. A row's result is the same to the bit as
+    that row alone (every reduction runs along its own row or window). Rows shorter than
+    ``a`` (``sizes``, default all of it) are padded at the end: only their full windows are
+    reduced, and their impact peaks are found in their own samples."""
+    n_windows = bounds.size - 1
     a_abs = np.abs(a)
     starts = bounds[:-1]
-    peaks = np.maximum.reduceat(a_abs[: bounds[-1]], starts)
-    usable = ~np.logical_or.reduceat(clip[: bounds[-1]], starts)
-    out: dict[str, Feature] = {}
-
-    out.update(_peak_features(name, peaks[usable], n_windows))
-    excluded = (~usable).astype(float)
-    out["clipped_windows"] = _feature("clipped_windows", float(np.mean(excluded)), excluded)
-
-    # Impact rate: value as vadsim.signals.labels.impact_frequency, spread from unquantised
-    # window rates.
-    idx = _impact_peaks(a_abs, rate_hz, peaks)
-    impact_hz = idx.size * rate_hz / a.size
-    rates = _window_rates(idx, rate_hz, bounds)
-    out["impact_hz"] = _feature("impact_hz", impact_hz, rates)
-    if f_exc_hz is not None:
-        out["impacts_per_cycle"] = _feature(
-            "impacts_per_cycle", impact_hz / f_exc_hz, rates / f_exc_hz
-        )
-
+    peaks = np.maximum.reduceat(a_abs[:, : bounds[-1]], starts, axis=1)
+    usable = ~np.logical_or.reduceat(clip[:, : bounds[-1]], starts, axis=1)
     # Band RMS: every band's mean and spread in one reduction each (as _feature forms them).
     rms = band_rms(a, rate_hz, bounds, band_list)
-    means = rms.mean(axis=0)
-    sds = (rms.std(axis=0, ddof=1) if n_windows >= _MIN_WINDOWS
-           else np.full(len(band_list), math.nan))
-    for j, (lo, hi) in enumerate(band_list):
-        value = float(means[j])
-        out[band_key(lo, hi)] = Feature(value, _floored(float(sds[j]), value, "g"), n_windows)
-    return _SensorResult(out, peaks, usable)
+    means = rms.mean(axis=1)
+    sds = (rms.std(axis=1, ddof=1) if n_windows >= _MIN_WINDOWS
+           else np.full(means.shape, math.nan))
+    band_keys = [band_key(lo, hi) for lo, hi in band_list]
+    results: list[_SensorResult] = []
+    for row in range(a.shape[0]):
+        out: dict[str, Feature] = {}
+        out.update(_peak_features(name, peaks[row][usable[row]], n_windows))
+        excluded = (~usable[row]).astype(float)
+        out["clipped_windows"] = _feature("clipped_windows", float(np.mean(excluded)),
+                                          excluded)
+        # Impact rate: value as vadsim.signals.labels.impact_frequency, spread from
+        # unquantised window rates.
+        size = a.shape[1] if sizes is None else int(sizes[row])
+        idx = _impact_peaks(a_abs[row, :size], rate_hz, peaks[row])
+        impact_hz = idx.size * rate_hz / size
+        rates = _window_rates(idx, rate_hz, bounds)
+        out["impact_hz"] = _feature("impact_hz", impact_hz, rates)
+        if f_exc_hz is not None:
+            out["impacts_per_cycle"] = _feature(
+                "impacts_per_cycle", impact_hz / f_exc_hz, rates / f_exc_hz
+            )
+        for j, key in enumerate(band_keys):
+            value = float(means[row, j])
+            out[key] = Feature(value, _floored(float(sds[row, j]), value, "g"), n_windows)
+        results.append(_SensorResult(out, peaks[row], usable[row]))
+    return results
 
 
 def sensor_features(
@@ -379,10 +412,9 @@ def event_features(
     if len(set(sizes.values())) > 1:
         raise ValueError(f"signals must all have the same length, got {sizes}")
 
-    out: dict[str, Feature] = {}
     results: dict[str, _SensorResult] = {}
     for name, sig in signals.items():
-        res = _sensor(
+        results[name] = _sensor(
             name,
             sig,
             rate_hz,
@@ -393,9 +425,14 @@ def event_features(
             arg=f"signals[{name!r}]",
             clipped_arg=f"clipped[{name!r}]",
         )
-        results[name] = res
-        out.update({f"{name}_{key}": f for key, f in res.features.items()})
+    return _joined(results)
 
+
+def _joined(results: Mapping[str, _SensorResult]) -> dict[str, Feature]:
+    """Every sensor's features under ``<sensor>_``, plus the x5/x1 peak ratio."""
+    out: dict[str, Feature] = {}
+    for name, res in results.items():
+        out.update({f"{name}_{key}": f for key, f in res.features.items()})
     if "x1" in results and "x5" in results:
         r1, r5 = results["x1"], results["x5"]
         both = r1.usable & r5.usable
@@ -407,4 +444,93 @@ def event_features(
             ratios = p5[p1 > 0.0] / p1[p1 > 0.0]
             f = _feature("x5_x1_peak_ratio", value, ratios)
             out["x5_x1_peak_ratio"] = Feature(f.value, f.spread, int(p1.size))
+    return out
+
+
+def phase_features(
+    signals: Mapping[str, Sequence[np.ndarray]],
+    rate_hz: float,
+    f_exc_hz: float | None = None,
+    clipped: Mapping[str, Sequence[np.ndarray]] | None = None,
+) -> list[dict[str, Feature]]:
+    """:func:`event_features` of several records of one event at once: item ``k`` of every
+    sensor's sequence is one record (e.g. one sampling phase of a model run), and item ``k``
+    of the result is that record's :func:`event_features` (default windows and bands), the
+    same to the bit.
+
+    Why: a measurement samples each run at several phases; taken together, the window
+    reductions and the spectra of all phases cost one call each instead of one per phase.
+    Records may differ in length (sampling phases of one window differ by a sample at its
+    end); those with the same full windows go together.
+
+    Parameters
+    ----------
+    signals : mapping of str to sequence of numpy.ndarray
+        Each sensor's records, g, 1-D and finite (as the sensor chain returns them); the
+        sensors' k-th records of one length.
+    rate_hz : float
+        Sampling rate, Hz.
+    f_exc_hz : float, optional
+        Excitation frequency, Hz.
+    clipped : mapping of str to sequence of numpy.ndarray of bool, optional
+        Clipped-sample masks, as ``signals``.
+
+    Returns
+    -------
+    list of dict of str to Feature
+        One per record.
+
+    Raises
+    ------
+    ValueError
+        For sensors with different numbers of records, a k-th record of different lengths
+        across sensors, a record that is not 1-D or holds non-finite values (naming the sensor
+        and record), or a mask of another length; otherwise as :func:`event_features`.
+    """
+    if not isinstance(signals, Mapping) or not signals:
+        raise ValueError(f"signals must be a non-empty mapping of sensor to records, "
+                         f"got {signals!r}")
+    masks = {} if clipped is None else clipped
+    names = list(signals)
+    counts = {name: len(signals[name]) for name in names}
+    if len(set(counts.values())) > 1:
+        raise ValueError(f"signals: every sensor needs the same number of records, got {counts}")
+    records = counts[names[0]]
+    arrays: dict[str, list[np.ndarray]] = {}
+    clips: dict[str, list[np.ndarray]] = {}
+    for name in names:
+        arrays[name] = [finite_1d(f"signals[{name!r}][{k}]", a) for k, a in
+                        enumerate(signals[name])]
+        clips[name] = [_check_clipped(f"clipped[{name!r}][{k}]", masks[name][k] if name in
+                                      masks else None, arrays[name][k].size)
+                       for k in range(records)]
+    sizes = [arrays[names[0]][k].size for k in range(records)]
+    for name in names:
+        for k in range(records):
+            if arrays[name][k].size != sizes[k]:
+                raise ValueError(f"signals[{name!r}][{k}] has {arrays[name][k].size} samples, "
+                                 f"signals[{names[0]!r}][{k}] {sizes[k]}")
+    rate_hz = finite_positive("rate_hz", rate_hz)
+    if f_exc_hz is not None:
+        f_exc_hz = finite_positive("f_exc_hz", f_exc_hz)
+    band_list = band_edges_for(rate_hz, None)
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for k in range(records):
+        bounds = _bounds(f"signals[...][{k}]", sizes[k], rate_hz, PEAK_WINDOW_S)
+        groups.setdefault(tuple(bounds.tolist()), []).append(k)
+    out: list[dict[str, Feature]] = [{} for _ in range(records)]
+    for edges, members in groups.items():
+        bounds = np.asarray(edges, dtype=np.intp)
+        width = max(sizes[k] for k in members)
+        per_sensor = {}
+        for name in names:
+            a = np.zeros((len(members), width))
+            c = np.zeros((len(members), width), dtype=bool)
+            for row, k in enumerate(members):
+                a[row, : sizes[k]] = arrays[name][k]
+                c[row, : sizes[k]] = clips[name][k]
+            per_sensor[name] = _sensor_rows(name, a, rate_hz, f_exc_hz, bounds, band_list, c,
+                                            [sizes[k] for k in members])
+        for row, k in enumerate(members):
+            out[k] = _joined({name: per_sensor[name][row] for name in names})
     return out

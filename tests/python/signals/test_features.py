@@ -18,7 +18,7 @@ from vadsim.signals.features import (
     summary_features,
 )
 from vadsim.signals.labels import impact_frequency, peak_stats, window_bounds, window_peaks
-from vadsim.signals.window_features import event_features, sensor_features
+from vadsim.signals.window_features import event_features, phase_features, sensor_features
 
 RATE = 1024.0
 BAND_KEYS = [band_key(lo, hi) for lo, hi in DEFAULT_BANDS]
@@ -303,6 +303,41 @@ def test_ratio_uses_windows_unclipped_in_both_sensors() -> None:
     assert feats["x5_x1_peak_ratio"].n == 19
     assert feats["x1_clipped_windows"].value == pytest.approx(1 / 20)
     assert feats["x5_clipped_windows"].value == 0.0
+
+
+@pytest.mark.parametrize("sizes", [(4096,) * 4, (4097, 4096, 4096, 4096), (4096, 4300, 4305, 3000)])
+def test_phase_features_equal_each_record_alone(sizes: tuple[int, ...]) -> None:
+    # The measurement's batched path must give each sampling phase exactly what event_features
+    # gives it: windows, spectra and impact peaks reduced row by row, ragged ends included
+    # (3000 samples hold fewer windows than the rest: a group of its own).
+    rng = np.random.default_rng(11)
+    records, masks = [], []
+    for k, n in enumerate(sizes):
+        x1 = np.resize(spike_train(32.0, 80.0 + 5.0 * k, 5.0), n) + rng.normal(0.0, 1.0, n)
+        x5 = 0.4 * np.roll(x1, 3) + rng.normal(0.0, 0.5, n)
+        records.append({"x1": x1, "x5": x5})
+        masks.append({"x1": rng.random(n) < 0.002, "x5": np.zeros(n, dtype=bool)})
+    alone = [event_features(r, RATE, 32.0, clipped=m) for r, m in zip(records, masks, strict=True)]
+    together = phase_features({s: [r[s] for r in records] for s in ("x1", "x5")}, RATE, 32.0,
+                              {s: [m[s] for m in masks] for s in ("x1", "x5")})
+    assert len(together) == len(alone)
+    assert all(0.0 < f["x1_clipped_windows"].value < 1.0 for f in alone)  # some windows out
+    for one, batch in zip(alone, together, strict=True):
+        assert list(one) == list(batch)
+        for key in one:
+            a, b = one[key], batch[key]
+            assert np.array_equal([a.value, a.spread, a.n], [b.value, b.spread, b.n],
+                                  equal_nan=True), key
+
+
+def test_phase_features_refuses_mismatched_records() -> None:
+    x = np.zeros(4096)
+    with pytest.raises(ValueError, match="same number of records"):
+        phase_features({"x1": [x, x], "x5": [x]}, RATE)
+    with pytest.raises(ValueError, match=r"signals\['x5'\]\[1\] has 4000 samples"):
+        phase_features({"x1": [x, x], "x5": [x, x[:4000]]}, RATE)
+    with pytest.raises(ValueError, match=r"signals\['x1'\]\[0\]"):
+        phase_features({"x1": [np.full(4096, np.nan)]}, RATE)
 
 
 # --------------------------------------------------------------------------------------------
