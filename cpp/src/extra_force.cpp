@@ -27,10 +27,12 @@ void check_range(double v, const char* what, double lo, double hi, const char* u
 HydraulicForce::HydraulicForce(int dof, double c, double n) : dof_(dof), c_(c), n_(n) {
   check_dof(dof, "hydraulic_force dof", false);
   // n = 0 is a constant force, 4 already far steeper than any pressure drop; within that,
-  // c Q^n at 2e4 gal/min (beyond any preset's highest flow) stays below 4e8 N/kg, inside the
-  // bound of Fo and wob (1e9): |c| <= 4e8 / 2e4^n, i.e. 1 (N/kg)/(gal/min)^2 for the square.
+  // c Q^n at 5e3 gal/min (six times the highest flow of any preset's campaigns) stays below
+  // 4e8 N/kg, inside the bound of Fo and wob (1e9): |c| <= 4e8 / 5e3^n, i.e. 16 (N/kg)/
+  // (gal/min)^2 for the square. At 2e4 gal/min the bound refused n = 4 with 64 N/kg at
+  // 400 gal/min, a force a diagnosis meets when it widens the exponent's range.
   check_range(n, "hydraulic_force n", 0.0, 4.0, "-", false);
-  const double c_max = 4e8 / std::pow(2e4, n);
+  const double c_max = 4e8 / std::pow(5e3, n);
   check_range(c, "hydraulic_force c", -c_max, c_max, "(N/kg)/(gal/min)^n", true);
 }
 

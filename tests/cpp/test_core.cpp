@@ -1191,9 +1191,11 @@ void test_hydraulic_force() {
   CHECK(f2[1] == 2.5e-4 * 437.0 * 437.0 && fs[1] == f2[1], "square law ", f2[1], " ", fs[1]);
   CHECK_THROWS(std::invalid_argument, HydraulicForce(1, 1e-4, 5.0), "hydraulic_force n = 5");
   CHECK_THROWS(std::invalid_argument, HydraulicForce(1, 1e-4, -1.0), "hydraulic_force n = -1");
-  // The bound on c follows the exponent: 4e8 N/kg at 2e4 gal/min.
-  CHECK_THROWS(std::invalid_argument, HydraulicForce(1, 1e-3, 3.0), "hydraulic_force c = ");
-  HydraulicForce(1, 4e8 / 8e12 * 0.99, 3.0);  // just inside: no throw
+  // The bound on c follows the exponent: 4e8 N/kg at 5e3 gal/min.
+  CHECK_THROWS(std::invalid_argument, HydraulicForce(1, 4e8 / 1.25e11 * 1.01, 3.0),
+               "hydraulic_force c = ");
+  HydraulicForce(1, 4e8 / 1.25e11 * 0.99, 3.0);  // just inside: no throw
+  HydraulicForce(1, 200.0 / std::pow(400.0, 4.0), 4.0);  // 200 N/kg at 400 gal/min, n = 4
 }
 
 // ------------------------------------------------------------------------------------------

@@ -77,7 +77,7 @@ Generic "a quantity is not what we think" (group ``"quantity"``)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -151,10 +151,13 @@ class Candidate:
         """Unique name of this variant, e.g. ``"hydraulic_force[anvil]"``."""
         return f"{self.id}[{self.variant}]" if self.variant else self.id
 
-    def check(self, values: Mapping[str, float]) -> dict[str, float]:
-        """Values by name, each inside its bounds (errors name the parameter and bounds)."""
+    def check(self, values: Mapping[str, float],
+              params: Sequence[ParamSpec] | None = None) -> dict[str, float]:
+        """Values by name, each inside its bounds (errors name the parameter and bounds);
+        ``params``: the candidate's parameters over other ranges (a diagnosis widens a range
+        its fit ended at: :meth:`vadsim.fit.hypothesis.Hypothesis.widened`)."""
         out: dict[str, float] = {}
-        for p in self.params:
+        for p in self.params if params is None else params:
             if p.name not in values:
                 raise ValueError(f"{self.key}: missing parameter {p.name!r}")
             v = float(values[p.name])
@@ -169,9 +172,10 @@ class Candidate:
                              f"it has {', '.join(p.name for p in self.params)}")
         return out
 
-    def change(self, values: Mapping[str, float]) -> ModelChange:
-        """The model change for these values (checked)."""
-        return self.build(self.check(values))
+    def change(self, values: Mapping[str, float],
+               params: Sequence[ParamSpec] | None = None) -> ModelChange:
+        """The model change for these values (checked, against ``params`` where given)."""
+        return self.build(self.check(values, params))
 
     def public_parameters(self, values: Mapping[str, float]) -> dict[str, Any]:
         """Values plus the fixed choices (what a report prints)."""

@@ -13,14 +13,16 @@ once each, and every stage of a fit (:mod:`vadsim.fit.stages`, :mod:`vadsim.fit.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Hashable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
 from vadsim.compare import CampaignEvaluator, EventEval
 from vadsim.fit.candidates import CANDIDATES, Candidate, ParamSpec
-from vadsim.fit.nuisance import NuisanceSpec
+from vadsim.fit.nuisance import WIDEN_BY, NuisanceSpec, widen
 from vadsim.model.change import ModelChange
 
 __all__ = ["Fold", "Hypothesis", "HypothesisCosts", "Point"]
@@ -34,11 +36,54 @@ class Hypothesis:
 
     keys: tuple[str, ...] = ()
     nuisance: tuple[NuisanceSpec, ...] = ()
+    ranges: tuple[tuple[str, str, float, float], ...] = ()
+    """Candidate parameters searched over another range than the library's, as ``(candidate
+    key, parameter, lo, hi)``: a fitted value at an end of its range widens it
+    (:meth:`widened`)."""
 
     @property
     def candidates(self) -> list[Candidate]:
         """The candidates, in selection order."""
         return [CANDIDATES[k] for k in self.keys]
+
+    def params_of(self, candidate: Candidate) -> list[ParamSpec]:
+        """``candidate``'s parameters with the ranges of :attr:`ranges`."""
+        own = {name: (lo, hi) for key, name, lo, hi in self.ranges if key == candidate.key}
+        return [replace(p, lo=own[p.name][0], hi=own[p.name][1]) if p.name in own else p
+                for p in candidate.params]
+
+    def widened(self, at_bounds: list[dict[str, Any]]
+                ) -> tuple[Hypothesis, list[dict[str, Any]]]:
+        """This hypothesis with every range a fit ended at an end of (``at_bounds``, as
+        :attr:`~vadsim.fit.hypothesis_fit.HypothesisFit.at_bounds`) widened at that end;
+        returns it and one record per change (``of``, ``name``, ``bound``, ``value``,
+        ``from``, ``to``).
+
+        Why: a value at its bound is evidence, not an estimate -- the records ask for more
+        than the range allows (measured: an onset steeper than the hydraulic force's
+        exponent 3 allows, held out at 3.01 with n at 3). Nuisance constants widen as
+        :func:`~vadsim.fit.nuisance.widen`; a candidate's parameter by :data:`~vadsim.fit.
+        nuisance.WIDEN_BY` of its range (of its log range where it is searched in log); a
+        lower end at 0 stays (a magnitude: a force, a damping), a positive one stays
+        positive (at least half of what it was)."""
+        nuisance, changes = widen(self.nuisance, at_bounds)
+        changes = [{"of": "nuisance", **c} for c in changes]
+        hits = {(e["of"], e["param"]): e for e in at_bounds if e.get("of") != "nuisance"}
+        ranges = {(k, n): (lo, hi) for k, n, lo, hi in self.ranges}
+        for c in self.candidates:
+            for p in self.params_of(c):
+                edge = hits.get((c.id, p.name))
+                if edge is None:
+                    continue
+                lo, hi = _wider(p, edge["bound"])
+                if (lo, hi) == (p.lo, p.hi):
+                    continue
+                ranges[(c.key, p.name)] = (lo, hi)
+                changes.append({"of": c.id, "name": p.name, "bound": edge["bound"],
+                                "value": edge["value"], "from": [p.lo, p.hi], "to": [lo, hi]})
+        out = Hypothesis(self.keys, nuisance,
+                         tuple((k, n, lo, hi) for (k, n), (lo, hi) in ranges.items()))
+        return out, changes
 
     @property
     def key(self) -> str:
@@ -48,7 +93,7 @@ class Hypothesis:
     @property
     def specs(self) -> list[ParamSpec]:
         """Every coordinate: the candidates' parameters, then the nuisance constants."""
-        return [p for c in self.candidates for p in c.params] + list(self.nuisance)
+        return [p for c in self.candidates for p in self.params_of(c)] + list(self.nuisance)
 
     @property
     def n_physics(self) -> int:
@@ -65,7 +110,7 @@ class Hypothesis:
 
     def extend(self, key: str) -> Hypothesis:
         """This hypothesis plus one candidate."""
-        return Hypothesis((*self.keys, key), self.nuisance)
+        return Hypothesis((*self.keys, key), self.nuisance, self.ranges)
 
     def null_point(self) -> Point:
         """Candidates where they vanish (else the middle of their box); nuisance at base."""
@@ -104,10 +149,27 @@ class Hypothesis:
         cands, nuis = self.split(point)
         out = ModelChange()
         for c in self.candidates:
-            out = out.combine(c.change(cands[c.key]))
+            out = out.combine(c.change(cands[c.key], self.params_of(c)))
         for p in self.nuisance:
             out = out.combine(p.change(nuis[p.name]))
         return out
+
+
+def _wider(p: ParamSpec, bound: str) -> tuple[float, float]:
+    """``p``'s range widened at ``bound`` (:meth:`Hypothesis.widened`), 6 digits."""
+    lo, hi = p.lo, p.hi
+    if p.scale == "log":
+        ratio = (hi / lo) ** WIDEN_BY
+        lo, hi = (lo / ratio, hi) if bound == "lower" else (lo, hi * ratio)
+    elif bound == "lower":
+        lo = lo - WIDEN_BY * (hi - lo) if lo < 0.0 else (lo if lo == 0.0 else
+                                                          max(lo - WIDEN_BY * (hi - lo),
+                                                              0.5 * lo))
+    else:
+        hi = hi + WIDEN_BY * (hi - lo)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return p.lo, p.hi
+    return float(f"{lo:.6g}"), float(f"{hi:.6g}")
 
 
 class HypothesisCosts:

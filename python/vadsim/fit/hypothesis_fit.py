@@ -89,11 +89,13 @@ class HypothesisFit:
     point_rss: dict[Point, float] = field(default_factory=dict, repr=False)
     """Every point evaluated on all the fit's events, with its training cost (a pair step
     reads the first step's probes from it)."""
+    ranges: tuple[tuple[str, str, float, float], ...] = ()
+    """Candidate parameters searched over a widened range (:attr:`Hypothesis.ranges`)."""
 
     @property
     def hypothesis(self) -> Hypothesis:
         """The fitted hypothesis."""
-        return Hypothesis(self.keys, self.nuisance_specs)
+        return Hypothesis(self.keys, self.nuisance_specs, self.ranges)
 
     @property
     def key(self) -> str:
@@ -244,7 +246,8 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     mse = float(all_sq.mean())
     k = len(specs)
     fit = HypothesisFit(
-        keys=hyp.keys, nuisance_specs=hyp.nuisance, point=best, k=k, intervals=intervals,
+        keys=hyp.keys, nuisance_specs=hyp.nuisance, ranges=hyp.ranges, point=best, k=k,
+        intervals=intervals,
         rss=best_rss, n=n, heldout_rms=math.sqrt(mse),
         heldout_rms_lofo=_rms(h.sq_lofo), heldout_rms_block=_rms(h.sq_block),
         score=aicc(int(all_sq.size), mse, k), heldout=h.held, heldout_sim=h.held_sim,

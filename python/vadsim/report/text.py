@@ -57,6 +57,11 @@ def diagnosis_summary(diag: Diagnosis) -> str:
                      f"({fmt_value(w['value'])}): the recordings ask for more than "
                      f"{fmt_value(w['from'][0])}-{fmt_value(w['from'][1])}; widened to "
                      f"{fmt_value(w['to'][0])}-{fmt_value(w['to'][1])} and refitted")
+    for w in diag.widened_chosen:
+        lines.append(f"chosen model: {w['of']} {w['name']} ended at its {w['bound']} bound "
+                     f"({fmt_value(w['value'])}) of {fmt_value(w['from'][0])}-"
+                     f"{fmt_value(w['from'][1])}; widened to {fmt_value(w['to'][0])}-"
+                     f"{fmt_value(w['to'][1])} and refitted")
     for i, step in enumerate(diag.steps):
         lines.append(f"step {i + 1}: {'candidate':34s} {'k':>2s} "
                      f"{'held-out RMS (LOFO/block)':>26s} {'score':>9s}")

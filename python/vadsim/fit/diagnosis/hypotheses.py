@@ -4,7 +4,8 @@ A :class:`Job` is one hypothesis (candidates plus nuisance constants), its start
 stages (:class:`~vadsim.fit.stages.Stage`: grids and local refinements, on the full or the
 coarse engine); :func:`vadsim.fit.diagnosis.parallel.fit_all` runs a list of them. The
 stage plans differ by what is fitted: the base model's calibration (:func:`calibrate_base`,
-widened where a nuisance constant ends at a bound: :func:`calibrate_widening`),
+widened where a nuisance constant ends at a bound: :func:`calibrate_widening`; the chosen
+model likewise where one of its values does: :func:`refit_widening`),
 a candidate on top of the chosen ones (:func:`job`, :func:`candidate_stages`), a screening
 probe (:func:`probe_stage`), a chosen model refitted near its optimum (:func:`refit_stages`).
 """
@@ -27,8 +28,8 @@ from vadsim.fit.stages import Stage
 __all__ = ["JOINT_IF_TRAINING_BELOW", "MAX_GRID_MODEL_SIDE", "MAX_JOINT_GRID_PARAMS",
            "PAIR_REFINE_PER_PARAM", "PROBE_PER_AXIS", "PROBE_PER_AXIS_MEASUREMENT",
            "WIDEN_ROUNDS", "Job", "calibrate_base", "calibrate_widening", "candidate_stages",
-           "densify", "job", "model_side", "probe_stage", "refit_stages", "siblings",
-           "without"]
+           "densify", "job", "model_side", "probe_stage", "refit_stages", "refit_widening",
+           "siblings", "without"]
 
 JOINT_IF_TRAINING_BELOW = 0.9
 """A candidate is refined jointly with the nuisance constants only where its own fit already
@@ -135,6 +136,47 @@ def calibrate_widening(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignE
         refit = calibrate_base(ctx, ev, coarse_ev, wider, say, start=fit.point)
         # a refit that ended worse keeps the earlier point; later fits still search wider
         fit = refit if refit.rss <= fit.rss else dataclasses.replace(fit, nuisance_specs=specs)
+    return fit, widened
+
+
+def refit_widening(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                   fit: HypothesisFit, say: Callable[[str], None]
+                   ) -> tuple[HypothesisFit, list[dict[str, Any]]]:
+    """The chosen model, and while one of its values (a candidate's parameter or a nuisance
+    constant) ends at an end of its range, that range widened
+    (:meth:`~vadsim.fit.hypothesis.Hypothesis.widened`) and the model refitted from where it
+    stopped (:func:`refit_stages`), at most :data:`WIDEN_ROUNDS` times; the refit is kept
+    where its training cost is not worse. Returns the fit and the widenings (for the
+    result: a bound hit is reported, never silently kept); where the model refuses a point
+    of the wider range (a value outside what the core accepts), the earlier fit is kept and
+    each widening of that round carries the refusal as ``refused``.
+
+    Why: a candidate's range is the library's guess of what is physical, not a fact of the
+    campaign; a fit at its end names the right physics with the wrong size, and the verdict
+    would call the campaign unexplained for want of range (an onset steeper than exponent 3,
+    measured on an independently written campaign)."""
+    widened: list[dict[str, Any]] = []
+    for _ in range(WIDEN_ROUNDS):
+        hyp, changes = fit.hypothesis.widened(fit.at_bounds)
+        if not changes:
+            break
+        for c in changes:
+            say(f"{c['of']} {c['name']} at its {c['bound']} bound ({c['value']:.4g}): range "
+                f"{c['from'][0]:.4g}-{c['from'][1]:.4g} widened to {c['to'][0]:.4g}-"
+                f"{c['to'][1]:.4g}, {fit.key} refitted")
+        widened += changes
+        try:
+            refit = fit_hypothesis(ev, hyp, hyp.round(fit.point), refit_stages(hyp),
+                                   ctx.folds, list(ctx.eids), say,
+                                   coarse=(coarse_ev, list(ctx.probe_eids)))
+        except ValueError as exc:  # the model refuses a value of the wider range
+            say(f"{fit.key} over the widened ranges: the model refused a point ({exc}); the "
+                "fit over the earlier ranges is kept")
+            for c in changes:
+                c["refused"] = str(exc)
+            break
+        fit = refit if refit.rss <= fit.rss else dataclasses.replace(
+            fit, nuisance_specs=hyp.nuisance, ranges=hyp.ranges)
     return fit, widened
 
 

@@ -31,7 +31,7 @@ from vadsim.fit.diagnosis.evidence import (
     probe_subset,
     rms_of,
 )
-from vadsim.fit.diagnosis.hypotheses import calibrate_widening
+from vadsim.fit.diagnosis.hypotheses import calibrate_widening, refit_widening
 from vadsim.fit.diagnosis.parallel import bar_tick, on_bar
 from vadsim.fit.diagnosis.policy import (
     Policy,
@@ -159,6 +159,9 @@ def diagnose(
                                           bar_tick(b))
         chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                             if review else (sel.chosen, []))
+        widened_chosen: list[dict[str, Any]] = []
+        if chosen is not None:
+            chosen, widened_chosen = refit_widening(ctx, ev, coarse_ev, chosen, say)
         final = chosen or none
         noise = _noise_check(ev, chosen, final, pol, say)
         baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),
@@ -177,6 +180,7 @@ def diagnose(
                           **pol.as_dict()),
             elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals + coarse_ev.n_evals,
             pairs=sel.pairs, review=reviewed, widened_nuisance=widened,
+            widened_chosen=widened_chosen,
         )
 
 

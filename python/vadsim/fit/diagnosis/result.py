@@ -68,6 +68,11 @@ class Diagnosis:
     range widened and the base model refitted (:func:`~vadsim.fit.nuisance.widen`):
     ``name``, ``bound``, ``value`` where it stopped, ``from`` and ``to`` ranges. Every
     hypothesis is fitted over the widened ranges."""
+    widened_chosen: list[dict[str, Any]] = field(default_factory=list)
+    """Ranges the chosen model ended at a bound of, each widened and the model refitted
+    (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`): ``of`` (the candidate's id,
+    or ``"nuisance"``), ``name``, ``bound``, ``value`` where it stopped, ``from`` and ``to``
+    ranges. The reported values are the refit's."""
     review: list[dict[str, Any]] = field(default_factory=list)
     """The review of the chosen model (:func:`review`): each refit, ``action`` ``"swap"``
     (candidate ``from`` refitted as its variant ``to``) or ``"drop"`` (refitted without
@@ -135,6 +140,7 @@ class Diagnosis:
             "pairs_probed": self.pairs,
             "review": self.review,
             "widened_nuisance": self.widened_nuisance,
+            "widened_chosen": self.widened_chosen,
             "noise": self.noise,
         }
         if self.prediction is not None:

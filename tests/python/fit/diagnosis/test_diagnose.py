@@ -877,3 +877,55 @@ def test_a_nuisance_at_its_bound_is_reported_widened_and_refitted():
     assert "widened to" in d.summary()
     assert any(s.startswith("theta0=2:") and not s.endswith(":2.4")
                for s in d.settings["nuisance"])
+
+
+def test_widened_moves_a_candidate_range_at_its_bound_and_keeps_magnitudes_non_negative():
+    from vadsim.fit.hypothesis import Hypothesis
+    from vadsim.fit.nuisance import THETA0, WIDEN_BY
+
+    hyp = Hypothesis(("hydraulic_force[anvil]", "contact_law", "anvil_friction"), (THETA0,))
+    hits = [{"of": "hydraulic_force", "param": "n", "value": 3.0, "bound": "upper"},
+            {"of": "contact_law", "param": "factor", "value": 0.1, "bound": "lower"},
+            {"of": "anvil_friction", "param": "force", "value": 0.0, "bound": "lower"}]
+    wider, changes = hyp.widened(hits)
+    by_name = {p.name: p for p in wider.specs}
+    assert (by_name["n"].lo, by_name["n"].hi) == (1.0, pytest.approx(3.0 + WIDEN_BY * 2.0))
+    # a log-searched range widens by a ratio: 0.1-10 -> 0.01-10 at WIDEN_BY 0.5
+    assert by_name["factor"].lo == pytest.approx(0.1 / 100.0 ** WIDEN_BY)
+    assert by_name["force"].lo == 0.0  # a magnitude's lower end at 0 stays
+    assert [(c["of"], c["name"], c["bound"]) for c in changes] == [
+        ("hydraulic_force", "n", "upper"), ("contact_law", "factor", "lower")]
+    assert changes[0]["from"] == [1.0, 3.0] and changes[0]["to"] == [1.0, by_name["n"].hi]
+    # the widened ranges hold through a candidate added on top, and only for their own
+    bigger = wider.extend("rock_stiffness")
+    assert [p.hi for p in bigger.specs[:2]] == [200.0, by_name["n"].hi]
+    assert Hypothesis(("hydraulic_force[anvil]",)).specs[1].hi == 3.0
+    assert hyp.widened([]) == (hyp, [])
+
+
+@pytest.mark.slow
+def test_a_candidate_at_its_bound_is_widened_and_refitted_beyond_it():
+    """The campaign's hydraulic force grows as (Q/400)^3.6, steeper than the library's
+    exponent range (1-3) allows: the chosen hydraulic force ends at n = 3, which is evidence,
+    not an estimate. The range is widened, the chosen model refitted beyond the old bound,
+    and the result and its summary say so."""
+    from vadsim.fit.hypothesis import Hypothesis
+
+    with pytest.raises(ValueError, match=r"n = 3.6 outside \[1, 3\]"):
+        CANDIDATES["hydraulic_force[anvil]"].change({"f_ref": 30.0, "n": 3.6})
+    steep = Hypothesis(("hydraulic_force[anvil]",), (),
+                       (("hydraulic_force[anvil]", "n", 1.0, 4.0),)).change((30.0, 3.6))
+    camp = synthetic_campaign("7in-cde", FLOWS, change=steep, seed=15, **SMALL)
+    d = _diagnose(camp, candidates=["hydraulic_force[anvil]"])
+    widened = d.as_json()["widened_chosen"]
+    assert widened and widened[0]["of"] == "hydraulic_force", d.summary()
+    assert (widened[0]["name"], widened[0]["bound"]) == ("n", "upper"), d.summary()
+    # beyond the old bound, towards the truth, and holding out no worse than at the bound
+    # (on 6 short records f_ref and n trade along a ridge: measured n 3.14, f_ref 34.8)
+    values = d.final.parameters["hydraulic_force"]
+    assert 3.05 < values["n"] <= 4.0, d.summary()
+    assert values["f_ref"] == pytest.approx(30.0, rel=0.25), d.summary()
+    at_bound = d.steps[0][0]
+    assert at_bound.parameters["hydraulic_force"]["n"] == 3.0, d.summary()
+    assert d.final.heldout_rms <= at_bound.heldout_rms, d.summary()
+    assert "widened to" in d.summary() and d.verdict == "explained", d.summary()
