@@ -36,8 +36,8 @@ from vadsim.fit.stages import Stage
 __all__ = ["PAIR_FULL", "PAIR_MIN_CUT", "PAIR_SCREEN_EVENTS", "PAIR_SCREEN_FULL",
            "PAIR_SCREEN_MIN_GAIN", "PAIR_SCREEN_REPORT", "PAIR_SCREEN_SHAPE_PER_AXIS",
            "PAIR_TOP", "PROBE_MIN_GAIN", "SOLO_FULL", "anchor_key", "current_cost",
-           "pair_prospects", "pair_step", "same_point", "screen_all_pairs", "screen_pairs",
-           "screened"]
+           "pair_probes", "pair_prospects", "pair_step", "same_point", "screen_all_pairs",
+           "screen_pairs", "screened"]
 
 PROBE_MIN_GAIN = 0.03
 """A probe must cut the training cost by this fraction of its start's, and of the current
@@ -150,27 +150,17 @@ def current_cost(probes: Sequence[HypothesisFit]) -> float:
     return best
 
 
-def pair_step(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
-               base: HypothesisFit, probes: Sequence[HypothesisFit],
-               policy: Policy, say: Callable[[str], None],
-               tried: list[dict[str, Any]] | None = None,
-               tick: Tick = lambda *_status: None) -> list[HypothesisFit]:
-    """Pairs of the first step's most promising candidates (:func:`pair_prospects`): a joint
-    probe of each pair (a grid over both candidates' parameters at the nuisance values where
-    they showed most, on the coarse engine), then full fits of the :data:`PAIR_FULL` best
-    whose probe cuts the best single probe's cost by :data:`PAIR_MIN_CUT` in RMS; best
-    first, or none. Whether the best is chosen is :func:`passes`' question, against
-    "none", with the diagnosis' own thresholds. ``tried`` receives each joint probe's
-    outcome.
-
-    Why so many parameters: this is one step of
-    :func:`~vadsim.fit.diagnosis.selection.forward_selection` and takes that loop's state as
-    it is: the context and both engines, the model the pairs extend, the first step's probes,
-    the thresholds, the progress callbacks (``say``, ``tick``) and where to record each
-    probe's outcome."""
+def pair_probes(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                base: HypothesisFit, probes: Sequence[HypothesisFit],
+                say: Callable[[str], None], tick: Tick = lambda *_status: None
+                ) -> tuple[list[HypothesisFit], float]:
+    """The joint probes of :func:`pair_step` (a grid over both candidates' parameters of each
+    pair of :func:`pair_prospects`, at the nuisance values where they showed most, on the
+    coarse engine) and the best single probe's cost they are measured against; no probes
+    (and inf) where no pair is a prospect."""
     prospects = pair_prospects(probes, PAIR_TOP)
     if not prospects:
-        return []
+        return [], math.inf
     say(f"pairs: joint probes of {len(prospects)} pair(s) of "
         + ", ".join(dict.fromkeys(k for a, b, _ in prospects for k in (a, b))))
     jobs = []
@@ -180,16 +170,39 @@ def pair_step(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
         jobs.append(Job(hyp, start, (Stage(grid=tuple(range(hyp.n_physics)), refine=(),
                                             maxfev=0, max_per_axis=PROBE_PER_AXIS),),
                          probe=True))
-    joint = fit_all(ctx, jobs, ev, coarse_ev, say, tick)
-    single = min(f.rss for f in probes)
-    promising = sorted((f for f in joint if f.rss <= (1.0 - PAIR_MIN_CUT) ** 2 * single),
+    return fit_all(ctx, jobs, ev, coarse_ev, say, tick), min(f.rss for f in probes)
+
+
+def pair_step(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+               base: HypothesisFit, probes: Sequence[HypothesisFit],
+               policy: Policy, say: Callable[[str], None],
+               tried: list[dict[str, Any]] | None = None,
+               tick: Tick = lambda *_status: None,
+               joint: tuple[list[HypothesisFit], float] | None = None) -> list[HypothesisFit]:
+    """Pairs of the first step's most promising candidates (:func:`pair_prospects`): a joint
+    probe of each pair (:func:`pair_probes`; ``joint``, where they were probed already),
+    then full fits of the :data:`PAIR_FULL` best whose probe cuts the best single probe's
+    cost by :data:`PAIR_MIN_CUT` in RMS; best first, or none. Whether the best is chosen is
+    :func:`passes`' question, against "none", with the diagnosis' own thresholds.
+    ``tried`` receives each joint probe's outcome.
+
+    Why so many parameters: this is one step of
+    :func:`~vadsim.fit.diagnosis.selection.forward_selection` and takes that loop's state as
+    it is: the context and both engines, the model the pairs extend, the first step's probes,
+    the thresholds, the progress callbacks (``say``, ``tick``) and where to record each
+    probe's outcome."""
+    probed, single = (pair_probes(ctx, ev, coarse_ev, base, probes, say, tick)
+                      if joint is None else joint)
+    if not probed:
+        return []
+    promising = sorted((f for f in probed if f.rss <= (1.0 - PAIR_MIN_CUT) ** 2 * single),
                        key=lambda f: f.rss)
     say("pairs: " + ("; ".join(f"{f.key} probe RSS {f.rss:.1f}" for f in promising[:PAIR_FULL])
                      or "none") + f" against {single:.1f} for the best single probe")
     if tried is not None:
         fitted = {f.key for f in promising[:PAIR_FULL]}
         tried.extend({"pair": f.key, "probe_rss": f.rss, "single_rss": single,
-                      "fitted": f.key in fitted} for f in sorted(joint, key=lambda f: f.rss))
+                      "fitted": f.key in fitted} for f in sorted(probed, key=lambda f: f.rss))
     if not promising:
         return []
     full = fit_all(ctx, [Job(f.hypothesis, f.point,
