@@ -110,6 +110,9 @@ class ParamSpec:
     scale: str = "linear"
     null: float | None = None
     grid: int = 11
+    limits: tuple[float, float] = (-math.inf, math.inf)
+    """What the model accepts for it: a diagnosis that widens the range
+    (:meth:`vadsim.fit.hypothesis.Hypothesis.widened`) stops there."""
 
     def to_unit(self, x: float) -> float:
         """Parameter value -> position in [0, 1] of the search box."""
@@ -291,7 +294,8 @@ def _hydraulic(acts_on: str) -> Candidate:
     return Candidate(
         id="hydraulic_force", variant=acts_on,
         params=(ParamSpec("f_ref", 0.0, 200.0, "N/kg at 400 gal/min", "linear", 0.0),
-                ParamSpec("n", 1.0, 3.0, "-", "linear", None, grid=5)),
+                ParamSpec("n", 1.0, 3.0, "-", "linear", None, grid=5,
+                          limits=(0.0, 4.0))),  # the core's range of the exponent
         side="model",
         signature=_HYDRAULIC_SIGNATURE[acts_on],
         build=build, fixed={"acts_on": acts_on},

@@ -65,7 +65,8 @@ class Hypothesis:
         :func:`~vadsim.fit.nuisance.widen`; a candidate's parameter by :data:`~vadsim.fit.
         nuisance.WIDEN_BY` of its range (of its log range where it is searched in log); a
         lower end at 0 stays (a magnitude: a force, a damping), a positive one stays
-        positive (at least half of what it was)."""
+        positive (at least half of what it was), and no range passes the parameter's
+        ``limits`` (what the model accepts)."""
         nuisance, changes = widen(self.nuisance, at_bounds)
         changes = [{"of": "nuisance", **c} for c in changes]
         hits = {(e["of"], e["param"]): e for e in at_bounds if e.get("of") != "nuisance"}
@@ -167,6 +168,7 @@ def _wider(p: ParamSpec, bound: str) -> tuple[float, float]:
                                                               0.5 * lo))
     else:
         hi = hi + WIDEN_BY * (hi - lo)
+    lo, hi = max(lo, p.limits[0]), min(hi, p.limits[1])
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return p.lo, p.hi
     return float(f"{lo:.6g}"), float(f"{hi:.6g}")

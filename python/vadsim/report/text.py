@@ -61,7 +61,9 @@ def diagnosis_summary(diag: Diagnosis) -> str:
         lines.append(f"chosen model: {w['of']} {w['name']} ended at its {w['bound']} bound "
                      f"({fmt_value(w['value'])}) of {fmt_value(w['from'][0])}-"
                      f"{fmt_value(w['from'][1])}; widened to {fmt_value(w['to'][0])}-"
-                     f"{fmt_value(w['to'][1])} and refitted")
+                     f"{fmt_value(w['to'][1])} and refitted"
+                     + (f" -- the model refused a point there ({w['refused']}); the fit "
+                        "over the earlier range is kept" if w.get("refused") else ""))
     for i, step in enumerate(diag.steps):
         lines.append(f"step {i + 1}: {'candidate':34s} {'k':>2s} "
                      f"{'held-out RMS (LOFO/block)':>26s} {'score':>9s}")

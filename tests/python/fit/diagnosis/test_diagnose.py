@@ -939,6 +939,11 @@ def test_widened_moves_a_candidate_range_at_its_bound_and_keeps_magnitudes_non_n
     assert [p.hi for p in bigger.specs[:2]] == [200.0, by_name["n"].hi]
     assert Hypothesis(("hydraulic_force[anvil]",)).specs[1].hi == 3.0
     assert hyp.widened([]) == (hyp, [])
+    # the exponent stops at what the core accepts (4): at that limit nothing is widened
+    at_limit = Hypothesis(("hydraulic_force[anvil]",), (),
+                          (("hydraulic_force[anvil]", "n", 1.0, 4.0),))
+    assert at_limit.widened([{"of": "hydraulic_force", "param": "n", "value": 4.0,
+                              "bound": "upper"}]) == (at_limit, [])
 
 
 @pytest.mark.slow
@@ -954,14 +959,19 @@ def test_a_candidate_at_its_bound_is_widened_and_refitted_beyond_it():
     steep = Hypothesis(("hydraulic_force[anvil]",), (),
                        (("hydraulic_force[anvil]", "n", 1.0, 4.0),)).change((30.0, 3.6))
     camp = synthetic_campaign("7in-cde", FLOWS, change=steep, seed=15, **SMALL)
-    d = _diagnose(camp, candidates=["hydraulic_force[anvil]"])
+    # no nuisance constants: the campaign is written at the preset's own, and the candidate's
+    # range is what is tested (a third of the evaluations)
+    d = _diagnose(camp, candidates=["hydraulic_force[anvil]"], nuisance=[])
     widened = d.as_json()["widened_chosen"]
     assert widened and widened[0]["of"] == "hydraulic_force", d.summary()
     assert (widened[0]["name"], widened[0]["bound"]) == ("n", "upper"), d.summary()
     # beyond the old bound, towards the truth, and holding out no worse than at the bound
-    # (on 6 short records f_ref and n trade along a ridge: measured n 3.14, f_ref 34.8)
+    # (on 6 short records f_ref and n trade along a ridge: measured n 4.0, the model's own
+    # limit, which ends the widening, f_ref 27.2, the interval of n 3.23-4.0)
     values = d.final.parameters["hydraulic_force"]
     assert 3.05 < values["n"] <= 4.0, d.summary()
+    assert d.final.interval["n"][0] <= 3.6 <= d.final.interval["n"][1], d.summary()
+    assert all(w["to"][1] <= 4.0 for w in widened), widened
     assert values["f_ref"] == pytest.approx(30.0, rel=0.25), d.summary()
     at_bound = d.steps[0][0]
     assert at_bound.parameters["hydraulic_force"]["n"] == 3.0, d.summary()
