@@ -158,16 +158,16 @@ class Hypothesis:
 
 def _wider(p: ParamSpec, bound: str) -> tuple[float, float]:
     """``p``'s range widened at ``bound`` (:meth:`Hypothesis.widened`), 6 digits."""
-    lo, hi = p.lo, p.hi
+    lo, hi, span = p.lo, p.hi, p.hi - p.lo
     if p.scale == "log":
         ratio = (hi / lo) ** WIDEN_BY
         lo, hi = (lo / ratio, hi) if bound == "lower" else (lo, hi * ratio)
-    elif bound == "lower":
-        lo = lo - WIDEN_BY * (hi - lo) if lo < 0.0 else (lo if lo == 0.0 else
-                                                          max(lo - WIDEN_BY * (hi - lo),
-                                                              0.5 * lo))
-    else:
-        hi = hi + WIDEN_BY * (hi - lo)
+    elif bound == "upper":
+        hi += WIDEN_BY * span
+    elif lo < 0.0:
+        lo -= WIDEN_BY * span
+    elif lo > 0.0:  # a positive lower end stays positive; one at 0 stays (a magnitude)
+        lo = max(lo - WIDEN_BY * span, 0.5 * lo)
     lo, hi = max(lo, p.limits[0]), min(hi, p.limits[1])
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return p.lo, p.hi

@@ -939,6 +939,10 @@ def test_widened_moves_a_candidate_range_at_its_bound_and_keeps_magnitudes_non_n
     assert [p.hi for p in bigger.specs[:2]] == [200.0, by_name["n"].hi]
     assert Hypothesis(("hydraulic_force[anvil]",)).specs[1].hi == 3.0
     assert hyp.widened([]) == (hyp, [])
+    # a positive linear lower end stays above half its value (n 1 -> 0.5, not 1 - 1 = 0)
+    low, _ = Hypothesis(("hydraulic_force[anvil]",)).widened(
+        [{"of": "hydraulic_force", "param": "n", "value": 1.0, "bound": "lower"}])
+    assert (low.specs[1].lo, low.specs[1].hi) == (0.5, 3.0)
     # the exponent stops at what the core accepts (4): at that limit nothing is widened
     at_limit = Hypothesis(("hydraulic_force[anvil]",), (),
                           (("hydraulic_force[anvil]", "n", 1.0, 4.0),))
