@@ -134,3 +134,33 @@ def test_concurrent_saves_to_one_file_do_not_collide(tmp_path, filled):
         assert proc.returncode == 0 and out_text.strip() == "ok", err[-2000:]
     xr.testing.assert_identical(load_dataset(out), ds)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.nc", "out.nc"]
+
+
+def test_private_claim_files_of_a_killed_process_are_cleared(tmp_path, filled):
+    """A kill -9 between writing a claim's owner record and linking it (or between setting a
+    stale claim aside and removing it) leaves a private file that no one reads; a store that
+    loads removes those whose owner has ended, and keeps a live process's and a fresh one
+    without a record (a live writer holds it for microseconds)."""
+    source, _ = filled
+    store_dir = tmp_path / "store"
+    store_dir.mkdir()
+    (store_dir / "grid.json").write_text((source / "grid.json").read_text())
+    child = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                           capture_output=True, text=True, check=True)
+    dead = {"pid": int(child.stdout), "host": socket.gethostname(), "start": None,
+            "time": time.time(), "token": "killed"}
+    live = {"pid": os.getpid(), "host": socket.gethostname(),
+            "start": vstore.process_start(os.getpid()), "time": time.time(), "token": "me"}
+    files = {"chunk-0-0.claim.new-a": json.dumps(dead), "chunk-0-1.claim.stale-b":
+             json.dumps(dead), "chunk-1-0.claim.new-c": json.dumps(live),
+             "chunk-1-1.claim.new-d": "{garb", "chunk-1-2.claim.new-e": "{garb"}
+    for name, text in files.items():
+        (store_dir / name).write_text(text)
+    old = time.time() - 2 * vstore.DEBRIS_AGE_S
+    os.utime(store_dir / "chunk-1-2.claim.new-e", (old, old))
+    settings = vsweep.RunSettings("7in-cde", cycles=20, analyse_cycles=10)
+    grid = make_grid(settings, FLOWS, {"gap_ratio": GAPS}, mode="independent",
+                     gap_via="spring", detail="full", workers=None, portable=True)
+    vstore.Store.open(store_dir, grid).load(grid.chunks())
+    assert sorted(p.name for p in store_dir.glob("*.claim*")) == [
+        "chunk-1-0.claim.new-c", "chunk-1-1.claim.new-d"]

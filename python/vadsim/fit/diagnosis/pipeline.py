@@ -157,11 +157,7 @@ def diagnose(
         none = none_model(base, plain)
         sel = selection.forward_selection(ctx, ev, coarse_ev, base, none, keys, pol, say,
                                           bar_tick(b))
-        chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
-                            if review else (sel.chosen, []))
-        widened_chosen: list[dict[str, Any]] = []
-        if chosen is not None:
-            chosen, widened_chosen = refit_widening(ctx, ev, coarse_ev, chosen, say)
+        chosen, reviewed, wider = _reviewed(ctx, ev, coarse_ev, sel, keys, pol, say, review)
         final = chosen or none
         noise = _noise_check(ev, chosen, final, pol, say)
         baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),
@@ -180,8 +176,24 @@ def diagnose(
                           **pol.as_dict()),
             elapsed_s=time.perf_counter() - t0, n_evals=ev.n_evals + coarse_ev.n_evals,
             pairs=sel.pairs, review=reviewed, widened_nuisance=widened,
-            widened_chosen=widened_chosen,
+            widened_chosen=wider,
         )
+
+
+def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+              sel: selection.Selection, keys: list[str], pol: Policy,
+              say: Callable[[str], None], review: bool
+              ) -> tuple[HypothesisFit | None, list[dict[str, Any]], list[dict[str, Any]]]:
+    """The chosen model after the review (:func:`~vadsim.fit.diagnosis.selection.review`,
+    if asked) and over the ranges it asks for
+    (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`): the model, the review's
+    records and the widenings."""
+    chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
+                        if review else (sel.chosen, []))
+    if chosen is None:
+        return None, reviewed, []
+    chosen, widened = refit_widening(ctx, ev, coarse_ev, chosen, say)
+    return chosen, reviewed, widened
 
 
 def _noise_check(ev: CampaignEvaluator, chosen: HypothesisFit | None, final: HypothesisFit,
