@@ -320,15 +320,6 @@ def _phase_average(per_phase: list[dict[str, Feature]]
     return out, sd
 
 
-def _per_phase_features(sampled: list[dict[str, np.ndarray]],
-                        clipped: list[dict[str, np.ndarray]], rate_hz: float,
-                        f_exc_hz: float) -> list[dict[str, Feature]]:
-    """:func:`event_features` of each phase's samples, all phases in one call."""
-    names = list(sampled[0])
-    return phase_features({n: [p[n] for p in sampled] for n in names}, rate_hz, f_exc_hz,
-                          {n: [c[n] for c in clipped] for n in names})
-
-
 def _model_folded(campaign: Campaign, t: np.ndarray, f_exc_hz: float,
                   filtered: Mapping[str, FilteredSignal],
                   periods: Iterable[int] | None = None,
@@ -416,19 +407,19 @@ def measure_event(
         # checked and low-passed once: every phase and the fold share it
         filtered = {name: FilteredSignal(t, full[name], campaign.sensors[name].lowpass_hz)
                     for name in names}
-        sampled: list[dict[str, np.ndarray]] = []
-        clipped: list[dict[str, np.ndarray]] = []
+        # each sensor's samples at every phase, reduced together (phase_features)
+        sampled: dict[str, list[np.ndarray]] = {name: [] for name in names}
+        clipped: dict[str, list[np.ndarray]] = {name: [] for name in names}
         for k in range(phases):
-            sampled.append({})
-            clipped.append({})
             for name in names:
                 s = campaign.sensors[name]
                 _, a_s, clip = filtered[name].sample(s.rate_hz, s.range_g, k / phases,
                                                      noise.get(name, 0.0), rng)
-                sampled[k][name], clipped[k][name] = a_s, clip
+                sampled[name].append(a_s)
+                clipped[name].append(clip)
                 if keep_signals and k == 0:
                     kept[name] = a_s
-        averaged, sd = _phase_average(_per_phase_features(sampled, clipped, rate, r.f_exc_hz))
+        averaged, sd = _phase_average(phase_features(sampled, rate, r.f_exc_hz, clipped))
         sensor_feats.update(averaged)
         phase_sd.update(sd)
         if use_folded(folded):

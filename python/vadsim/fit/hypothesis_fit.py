@@ -247,8 +247,7 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     k = len(specs)
     fit = HypothesisFit(
         keys=hyp.keys, nuisance_specs=hyp.nuisance, ranges=hyp.ranges, point=best, k=k,
-        intervals=intervals,
-        rss=best_rss, n=n, heldout_rms=math.sqrt(mse),
+        intervals=intervals, rss=best_rss, n=n, heldout_rms=math.sqrt(mse),
         heldout_rms_lofo=_rms(h.sq_lofo), heldout_rms_block=_rms(h.sq_block),
         score=aicc(int(all_sq.size), mse, k), heldout=h.held, heldout_sim=h.held_sim,
         fold_values=h.fold_values, predicted_values=h.predicted_values, n_points=len(points),

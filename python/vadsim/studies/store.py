@@ -393,16 +393,16 @@ class Store:
         ``chunk-1-8.claim.new-...`` behind."""
         for pattern in ("*.claim.new-*", "*.claim.stale-*"):
             for path in self.path.glob(pattern):
-                holder = read_json(path)
-                try:
-                    age = time.time() - path.stat().st_mtime
-                except FileNotFoundError:
+                stale = self._stale(path)
+                if stale is None:
                     continue
-                if not _owner_record(holder if isinstance(holder, dict) else {}) and (
-                        age < DEBRIS_AGE_S):
-                    continue
-                if self._stale(path) is not None:
-                    path.unlink(missing_ok=True)
+                if not _owner_record(stale[0]):
+                    try:
+                        if time.time() - path.stat().st_mtime < DEBRIS_AGE_S:
+                            continue
+                    except FileNotFoundError:
+                        continue
+                path.unlink(missing_ok=True)
 
     def drop_stale_claim(self, chunk: Chunk) -> None:
         """Remove a dead holder's claim of a chunk that is finished (it was killed between
