@@ -36,8 +36,8 @@ from vadsim.fit.stages import Stage
 __all__ = ["PAIR_FULL", "PAIR_MIN_CUT", "PAIR_SCREEN_EVENTS", "PAIR_SCREEN_FULL",
            "PAIR_SCREEN_MIN_GAIN", "PAIR_SCREEN_REPORT", "PAIR_SCREEN_SHAPE_PER_AXIS",
            "PAIR_TOP", "PROBE_MIN_GAIN", "SOLO_FULL", "anchor_key", "current_cost",
-           "pair_probes", "pair_prospects", "pair_step", "same_point", "screen_all_pairs",
-           "screen_pairs", "screened"]
+           "pair_probes", "pair_prospects", "pair_step", "record_pair_probes", "same_point",
+           "screen_all_pairs", "screen_pairs", "screened"]
 
 PROBE_MIN_GAIN = 0.03
 """A probe must cut the training cost by this fraction of its start's, and of the current
@@ -200,9 +200,7 @@ def pair_step(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     say("pairs: " + ("; ".join(f"{f.key} probe RSS {f.rss:.1f}" for f in promising[:PAIR_FULL])
                      or "none") + f" against {single:.1f} for the best single probe")
     if tried is not None:
-        fitted = {f.key for f in promising[:PAIR_FULL]}
-        tried.extend({"pair": f.key, "probe_rss": f.rss, "single_rss": single,
-                      "fitted": f.key in fitted} for f in sorted(probed, key=lambda f: f.rss))
+        record_pair_probes(tried, probed, single, {f.key for f in promising[:PAIR_FULL]})
     if not promising:
         return []
     full = fit_all(ctx, [Job(f.hypothesis, f.point,
@@ -210,6 +208,14 @@ def pair_step(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
                                                      pair=True)))
                           for f in promising[:PAIR_FULL]], ev, coarse_ev, say, tick)
     return sorted(full, key=lambda f: (any_vanishes(f), f.score))
+
+
+def record_pair_probes(tried: list[dict[str, Any]], probed: Sequence[HypothesisFit],
+                       single: float, fitted: Collection[str] = ()) -> None:
+    """Each joint probe's outcome, best first, as the report's ``pairs_probed`` lists it:
+    the pair, its probe's cost, the best single probe's, and whether it was fitted fully."""
+    tried.extend({"pair": f.key, "probe_rss": f.rss, "single_rss": single,
+                  "fitted": f.key in fitted} for f in sorted(probed, key=lambda f: f.rss))
 
 
 def screen_pairs(keys: Sequence[str]) -> list[tuple[str, str]]:

@@ -102,11 +102,10 @@ def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
             if policy.max_effects >= 2 and bar.heldout_rms > policy.max_rms:
                 # the pair step the fall-through below would run, first where its joint
                 # probes show a pair far beyond every single (used once either way)
-                joint = search.pair_probes(ctx, ev, coarse_ev, base, probes, say, tick)
+                early_joint = search.pair_probes(ctx, ev, coarse_ev, base, probes, say, tick)
                 early = (search.pair_step(ctx, ev, coarse_ev, base, probes, policy, say,
-                                          tried, tick, joint=joint)
-                         if early_pair_promising(*joint) else None)
-                early_joint = joint
+                                          tried, tick, joint=early_joint)
+                         if early_pair_promising(*early_joint) else None)
             if early and within_noise_pair(early[0], bar, current, policy):
                 say(f"the pair {early[0].key} holds out within the noise "
                     f"({early[0].heldout_rms:.3f}): no single is fitted fully first")
@@ -152,6 +151,8 @@ def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
         current = densify(ctx, ev, coarse_ev, fits[0], say)
         chosen_ids = set(current.ids)
         pool = [f.keys[-1] for f in fits[1:] if CANDIDATES[f.keys[-1]].id not in chosen_ids]
+    if early_joint is not None and early is None and not pair_tried:
+        search.record_pair_probes(tried, *early_joint)  # probed early, read by no pair step
     return Selection(steps, current if current is not base else None, tried)
 
 

@@ -474,6 +474,31 @@ def test_a_pair_far_ahead_of_every_single_probe_is_fitted_before_the_singles(mon
     assert selection.early_pair_promising([], 7000.0) is False
 
 
+def test_early_joint_probes_no_pair_step_read_are_still_reported(monkeypatch):
+    """The early joint probes run where step 1 passes no single; where one single then
+    passes once fitted fully, no pair step reads them, and the report still lists them
+    (``pairs_probed``, not fitted), as a pair step would have."""
+    from dataclasses import replace
+
+    from vadsim.fit.diagnosis import search, selection
+
+    def fit(keys, point, heldout, rss, probe=False):
+        return replace(_scored(heldout, k=len(point) + 2, n_heldout=806), keys=keys,
+                       point=point, rss=rss, probe=probe)
+
+    weak = fit(("contact_law",), (0.8, 0.5), 4.0, 9000.0)
+    probed = fit(("mass[bit]",), (1.1,), 4.1, 7000.0, probe=True)
+    found = fit(("mass[bit]",), (1.3,), 0.5, 400.0)
+    joint = [fit(("contact_law", "mass[bit]"), (0.4, 0.5, 1.3), 1.0, 1500.0, probe=True)]
+    monkeypatch.setattr(selection, "every_single_fitted",
+                        lambda ctx, ev, cev, current, fits, say, tick: [found, weak])
+    monkeypatch.setattr(search, "pair_probes", lambda *a, **k: (joint, 7000.0))
+    sel, calls, said = _selection_with(monkeypatch, [[weak, probed]], None)
+    assert sel.chosen is found and calls == [], said  # no pair step ran
+    assert sel.pairs == [{"pair": "contact_law+mass[bit]", "probe_rss": 1500.0,
+                          "single_rss": 7000.0, "fitted": False}]
+
+
 def test_a_cancelling_pair_is_found_by_the_screen_of_every_pair(monkeypatch):
     """blind-09 (a hydraulic force on the anvil with a stiffer impact face): each effect alone
     moves the response the wrong way, so no single probe shows either, and the pair step's
