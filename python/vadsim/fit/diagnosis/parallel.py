@@ -41,8 +41,9 @@ while another's features are measured (with it).
 Why 2 and not 1: a job alone in the pool -- the last of a step's fits, typically the
 longest -- then uses both cores, and two jobs side by side lose little. Measured on the
 10-event benchmark campaign (12 hydraulic-force points, 2 idle cores): alone 383 ms a
-point with 1 thread, 250-270 ms with 2; two processes side by side 364-375 ms with 1 thread
-each, 389-403 ms with 2. The threads do not change a result (an evaluation is a function
+point with 1 thread, 247-270 ms with 2; two processes side by side 364-375 ms with 1 thread
+each, 389-403 ms with 2; four diagnosis tests in two pytest processes 309 s with 1, 283 s
+with 2. The threads do not change a result (an evaluation is a function
 of its inputs: tests/python/fit/diagnosis/test_parallel.py)."""
 
 
