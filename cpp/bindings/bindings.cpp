@@ -43,7 +43,8 @@ void bind_errors_and_enums(py::module_& m) {
       .value("KelvinVoigt", ContactLawKind::KelvinVoigt)
       .value("KelvinVoigtNoTension", ContactLawKind::KelvinVoigtNoTension)
       .value("HuntCrossley", ContactLawKind::HuntCrossley)
-      .value("PowerDamping", ContactLawKind::PowerDamping);
+      .value("PowerDamping", ContactLawKind::PowerDamping)
+      .value("PowerDampingImpact", ContactLawKind::PowerDampingImpact);
   py::enum_<Method>(m, "Method").value("BDF", Method::BDF).value("Adams", Method::Adams);
   py::enum_<Record>(m, "Record")
       .value("None_", Record::None)
@@ -107,8 +108,9 @@ void bind_extra_forces(py::module_& m) {
   py::class_<HydraulicForce, ExtraForce, std::shared_ptr<HydraulicForce>>(m, "HydraulicForce")
       .def(py::init<int, double, double>(), py::arg("dof"), py::arg("c"), py::arg("n") = 2.0);
   py::class_<CoulombFriction, ExtraForce, std::shared_ptr<CoulombFriction>>(m, "CoulombFriction")
-      .def(py::init<int, int, double, double>(), py::arg("dof_a"), py::arg("dof_b"),
-           py::arg("force"), py::arg("v_eps"));
+      .def(py::init<int, int, double, double, double, double>(), py::arg("dof_a"),
+           py::arg("dof_b"), py::arg("force"), py::arg("v_eps"),
+           py::arg("static_force") = std::nan(""), py::arg("v_s") = 0.05);
   py::class_<SpringDashpot, ExtraForce, std::shared_ptr<SpringDashpot>>(m, "SpringDashpot")
       .def(py::init<int, int, double, double>(), py::arg("dof_a"), py::arg("dof_b"),
            py::arg("k"), py::arg("c"));

@@ -26,14 +26,20 @@ ContactForce PowerDampingLaw::eval(double d, double dd) const {
     w = std::pow(dp * inv_dc_, s_);
     dw = dp > 0 ? s_ * w / dp : 0.0;  // unbounded as d -> 0 for s < 1: its limit is not used
   }
-  return {k_ * d + lambda_ * w * dd, k_ + lambda_ * dw * dd, lambda_ * w};
+  if (m_ == 1.0) return {k_ * d + lambda_ * w * dd, k_ + lambda_ * dw * dd, lambda_ * w};
+  // k d_c (d/d_c)^m: its slope k m (d/d_c)^(m-1) is 0 at first touch for m > 1.
+  const double x = dp * inv_dc_;
+  const double spring_slope = k_ * m_ * std::pow(x, m_ - 1.0);
+  return {k_dc_ * x * std::pow(x, m_ - 1.0) + lambda_ * w * dd, spring_slope + lambda_ * dw * dd,
+          lambda_ * w};
 }
 
 double PowerDampingLaw::push_indicator(double d, double dd) const {
-  if (s_ == 0.0) return k_ * d + lambda_ * dd;  // Kelvin-Voigt without tension, bit for bit
+  // Kelvin-Voigt without tension, bit for bit
+  if (s_ == 0.0 && m_ == 1.0) return k_ * d + lambda_ * dd;
   const double dp = d > 0 ? d : 0.0;
-  if (s_ <= 1.0) return k_dc_ * std::pow(dp * inv_dc_, 1.0 - s_) + lambda_ * dd;
-  return k_dc_ + lambda_ * std::pow(dp * inv_dc_, s_ - 1.0) * dd;
+  if (s_ <= m_) return k_dc_ * std::pow(dp * inv_dc_, m_ - s_) + lambda_ * dd;
+  return k_dc_ + lambda_ * std::pow(dp * inv_dc_, s_ - m_) * dd;
 }
 
 std::shared_ptr<const ContactLaw> make_contact_law(ContactLawKind kind, double k, double c,
@@ -44,7 +50,9 @@ std::shared_ptr<const ContactLaw> make_contact_law(ContactLawKind kind, double k
     case ContactLawKind::HuntCrossley:
       return std::make_shared<HuntCrossleyLaw>(k, p.hc_n, p.hc_alpha);
     case ContactLawKind::PowerDamping:
-      return std::make_shared<PowerDampingLaw>(k, c, p.pd_factor, p.pd_shape, p.pd_dc);
+    case ContactLawKind::PowerDampingImpact:  // Model picks the surfaces; the law is the same
+      return std::make_shared<PowerDampingLaw>(k, c, p.pd_factor, p.pd_shape, p.pd_dc,
+                                               p.pd_spring);
     case ContactLawKind::KelvinVoigt:
     default:
       return std::make_shared<KelvinVoigtLaw>(k, c, true);

@@ -36,18 +36,27 @@ HydraulicForce::HydraulicForce(int dof, double c, double n) : dof_(dof), c_(c), 
   check_range(c, "hydraulic_force c", -c_max, c_max, "(N/kg)/(gal/min)^n", true);
 }
 
-CoulombFriction::CoulombFriction(int a, int b, double force, double v_eps)
-    : a_(a), b_(b), force_(force), v_eps_(v_eps) {
+CoulombFriction::CoulombFriction(int a, int b, double force, double v_eps, double static_force,
+                                 double v_s)
+    : a_(a), b_(b), force_(force), v_eps_(v_eps), peak_(0.0), inv_vs2_(0.0) {
   check_dof(a, "coulomb_friction dof_a", false);
   check_dof(b, "coulomb_friction dof_b", true);
   check_range(force, "coulomb_friction force", 1e-9, 1e9, "N/kg", true);
   check_range(v_eps, "coulomb_friction v_eps", 1e-9, 1e3, "m/s", false);
+  if (!std::isnan(static_force)) {
+    check_range(static_force, "coulomb_friction static_force", force, 1e9, "N/kg (>= force)",
+                false);
+    check_range(v_s, "coulomb_friction v_s", 1e-6, 1e3, "m/s", false);
+    peak_ = static_force - force;
+    inv_vs2_ = 1.0 / (v_s * v_s);
+  }
 }
 
 void CoulombFriction::add_force(double, double, const Vec7CRef&, const Vec7CRef& v,
                                 Vec7& f) const {
   const double vr = v[a_] - (b_ >= 0 ? v[b_] : 0.0);
-  const double F = force_ * std::tanh(vr / v_eps_);
+  const double level = peak_ == 0.0 ? force_ : force_ + peak_ * std::exp(-vr * vr * inv_vs2_);
+  const double F = level * std::tanh(vr / v_eps_);
   f[a_] -= F;
   if (b_ >= 0) f[b_] += F;
 }
@@ -56,7 +65,11 @@ void CoulombFriction::add_jacobian(double, double, const Vec7CRef&, const Vec7CR
                                    Mat7& dfdv) const {
   const double vr = v[a_] - (b_ >= 0 ? v[b_] : 0.0);
   const double th = std::tanh(vr / v_eps_);
-  const double g = force_ * (1.0 - th * th) / v_eps_;  // dF/dvr
+  double g = force_ * (1.0 - th * th) / v_eps_;  // dF/dvr
+  if (peak_ != 0.0) {
+    const double bump = peak_ * std::exp(-vr * vr * inv_vs2_);
+    g = (force_ + bump) * (1.0 - th * th) / v_eps_ - 2.0 * vr * inv_vs2_ * bump * th;
+  }
   dfdv(a_, a_) -= g;
   if (b_ >= 0) {
     dfdv(a_, b_) += g;

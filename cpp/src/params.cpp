@@ -31,6 +31,8 @@ constexpr double kPdFactor[2] = {1e-9, 1e6};    // -, or 0 (on a damping of at m
 // s = 1.5 its Hertzian form's (lambda d^1.5); 2 leaves room above that. Beyond it the
 // damping is negligible over most of a contact and the law a spring in disguise.
 constexpr double kPdShape[2] = {0.0, 2.0};      // -
+// m = 1 is a linear spring, 1.5 Hertz's curved faces, 10/9 a line contact; 2 leaves room.
+constexpr double kPdSpring[2] = {1.0, 2.0};     // -
 // The indentation scale: from a micrometre (machined faces in hard contact) to a metre (far
 // beyond any tool's travel; (d / pd_dc)^s stays a normal number for d within kMaxLengthM).
 constexpr double kPdDc[2] = {1e-6, 1.0};        // m
@@ -128,6 +130,8 @@ const std::vector<ParamInfo>& param_table() {
        &Params::pd_shape, kPdShape[0], kPdShape[1]},
       {"pd_dc", "m", "power-damping characteristic indentation", R::Positive, &Params::pd_dc,
        kPdDc[0], kPdDc[1]},
+      {"pd_spring", "-", "power-damping spring exponent (spring ~ indentation^exponent)",
+       R::Exponent, &Params::pd_spring, kPdSpring[0], kPdSpring[1]},
   };
   return table;
 }

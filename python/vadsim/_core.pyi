@@ -17,6 +17,7 @@ class ContactLawKind(enum.Enum):
     KelvinVoigtNoTension = 1
     HuntCrossley = 2
     PowerDamping = 3
+    PowerDampingImpact = 4
 
 class Method(enum.Enum):
     BDF = 0
@@ -82,6 +83,7 @@ class Params:
     pd_factor: float
     pd_shape: float
     pd_dc: float
+    pd_spring: float
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
     def gap(self) -> float: ...
@@ -105,7 +107,8 @@ class HydraulicForce(ExtraForce):
     def __init__(self, dof: int, c: float, n: float = ...) -> None: ...
 
 class CoulombFriction(ExtraForce):
-    def __init__(self, dof_a: int, dof_b: int, force: float, v_eps: float) -> None: ...
+    def __init__(self, dof_a: int, dof_b: int, force: float, v_eps: float,
+                 static_force: float = ..., v_s: float = 0.05) -> None: ...
 
 class SpringDashpot(ExtraForce):
     def __init__(self, dof_a: int, dof_b: int, k: float, c: float) -> None: ...

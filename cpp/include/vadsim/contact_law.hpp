@@ -61,36 +61,41 @@ class HuntCrossleyLaw final : public ContactLaw {
   double k_, n_, alpha_;
 };
 
-/// @brief max(0, k d + lambda (d / d_c)^s d') with lambda = factor * c, c the surface's own
-/// damping: a family of dissipative laws indexed by how the damping grows with indentation.
+/// @brief max(0, k d_c (d / d_c)^m + lambda (d / d_c)^s d') with lambda = factor * c, c the
+/// surface's own damping: a family of dissipative laws indexed by how the spring and the
+/// damping grow with indentation.
 ///
 /// A field's contacts never follow one textbook law exactly, so a diagnosis needs a family
-/// wide enough that a near miss of form still lands on the right physics: s = 0 is
-/// Kelvin-Voigt without tension (factor 1: the dissertation's k and c, never pulling), s = 1
-/// is Hunt-Crossley's damping on a linear spring (lambda d d': continuous force at first
-/// touch, restitution falling with impact speed), s = 1.5 its Hertzian form's exponent.
-/// d_c is a characteristic indentation that makes factor "the damping at a typical impact,
-/// relative to the surface's c", so that factor and s are nearly independent in a fit:
+/// wide enough that a near miss of form still lands on the right physics: with the linear
+/// spring (m = 1, k d), s = 0 is Kelvin-Voigt without tension (factor 1: the dissertation's k
+/// and c, never pulling), s = 1 is Hunt-Crossley's damping on a linear spring (lambda d d':
+/// continuous force at first touch, restitution falling with impact speed), s = 1.5 its
+/// Hertzian form's exponent. m = 1.5 is Hertz's spring of two curved faces; m = s is
+/// Hunt-Crossley's law k_h d^m (1 + alpha d') written with alpha = lambda / (k d_c).
+/// d_c is a characteristic indentation that makes k and factor "the stiffness and the damping
+/// at a typical impact", so that they stay nearly independent of m and s in a fit:
 /// Params::pd_dc = 1 mm is the size of the 7in tool's impacts (peak indentations over
 /// 200-650 gal/min: impact face 0.46-4.7 mm with median 1.1-1.7 mm at 350-500 gal/min,
 /// recoil spring 1.4-5.3 mm, on-bottom shoulder 0.75-0.87 mm, the static 0.75 mm included).
 ///
-/// The lift-off indicator is the unclamped force divided by a positive function of d, so it
-/// stays smooth and non-zero at first touch: F / (d / d_c)^s for s <= 1 (-> lambda d' at
-/// d = 0, the sign of the approach) and F d_c / d for s > 1 (-> k d_c > 0: the force never
-/// turns negative near first touch because the damping vanishes faster than the spring).
+/// The lift-off indicator is the unclamped force divided by (d / d_c)^min(m, s), a positive
+/// function of d, so it stays smooth and non-zero at first touch: k d_c (d / d_c)^(m - s) +
+/// lambda d' for s <= m (-> lambda d' at d = 0, the sign of the approach) and k d_c + lambda
+/// (d / d_c)^(s - m) d' for s > m (-> k d_c > 0: the force never turns negative near first
+/// touch because the damping vanishes faster than the spring).
 class PowerDampingLaw final : public ContactLaw {
  public:
-  /// @param k, c the surface's stiffness and damping; factor, shape, d_c the family's
-  /// Params::pd_factor, pd_shape, pd_dc (validated there).
-  PowerDampingLaw(double k, double c, double factor, double shape, double d_c)
-      : k_(k), lambda_(factor * c), s_(shape), inv_dc_(1.0 / d_c), k_dc_(k * d_c) {}
+  /// @param k, c the surface's stiffness and damping; factor, shape, d_c, spring the family's
+  /// Params::pd_factor, pd_shape, pd_dc, pd_spring (validated there).
+  PowerDampingLaw(double k, double c, double factor, double shape, double d_c,
+                  double spring = 1.0)
+      : k_(k), lambda_(factor * c), s_(shape), m_(spring), inv_dc_(1.0 / d_c), k_dc_(k * d_c) {}
   ContactForce eval(double d, double dd) const override;
   bool pushes_only() const override { return true; }
   double push_indicator(double d, double dd) const override;
 
  private:
-  double k_, lambda_, s_, inv_dc_, k_dc_;
+  double k_, lambda_, s_, m_, inv_dc_, k_dc_;
 };
 
 /// @brief The law a surface gets for the chosen kind (the rock always keeps Kelvin-Voigt).

@@ -58,10 +58,15 @@ class HydraulicForce final : public ExtraForce {
 };
 
 /// @brief Coulomb friction between two bodies, regularised as F tanh(v_rel / v_eps) so that
-/// stick-slip needs no extra root functions.
+/// stick-slip needs no extra root functions; optionally with a Stribeck peak, F(v) = force +
+/// (static - force) exp(-(v / v_s)^2), the higher force of a seal or spline that has just
+/// stopped sliding.
 class CoulombFriction final : public ExtraForce {
  public:
-  CoulombFriction(int dof_a, int dof_b, double force, double v_eps);
+  /// @param static_force the force at rest (N/kg; >= force; NaN or equal to force: no peak);
+  /// v_s the Stribeck velocity (m/s) over which it falls to the kinetic force.
+  CoulombFriction(int dof_a, int dof_b, double force, double v_eps,
+                  double static_force = std::nan(""), double v_s = 0.05);
   std::string name() const override { return "coulomb_friction"; }
   void add_force(double, double, const Vec7CRef&, const Vec7CRef& v, Vec7& f) const override;
   void add_jacobian(double, double, const Vec7CRef&, const Vec7CRef& v, Mat7&,
@@ -70,6 +75,8 @@ class CoulombFriction final : public ExtraForce {
  private:
   int a_, b_;
   double force_, v_eps_;
+  double peak_;        ///< static - force (0: Coulomb, bit for bit)
+  double inv_vs2_;     ///< 1 / v_s^2
 };
 
 /// @brief A linear spring-dashpot from a body to the ground (dof_b < 0) or to another body:

@@ -16,7 +16,9 @@ enum class ContactLawKind {
   KelvinVoigt = 0,           ///< k d + c d' while d > 0, tension kept (the dissertation's law)
   KelvinVoigtNoTension = 1,  ///< max(0, k d + c d'): a contact can only push
   HuntCrossley = 2,          ///< max(0, k d^n + lambda d^n d') with lambda = hc_alpha * k
-  PowerDamping = 3           ///< max(0, k d + pd_factor c (d / pd_dc)^pd_shape d')
+  PowerDamping = 3,          ///< max(0, k d_c (d/d_c)^pd_spring + pd_factor c (d/d_c)^pd_shape d')
+  /// The power-damping law at the impact face only; the other three keep Kelvin-Voigt.
+  PowerDampingImpact = 4
 };
 
 /// @brief Table 2.1 of the dissertation plus the constants it withholds (l0, wob).
@@ -54,6 +56,9 @@ struct Params {
   double hc_alpha = 0.2;   ///< Hunt-Crossley damping factor (s/m): lambda = hc_alpha * k
   double pd_factor = 1.0;  ///< power-damping factor on each surface's own damping c (-)
   double pd_shape = 0.0;   ///< power-damping shape s: damping ~ (d / pd_dc)^s (-)
+  /// Power-damping spring exponent m: spring k pd_dc (d / pd_dc)^m, equal to the linear k d at
+  /// d = pd_dc (1: linear, 1.5: Hertz's curved faces) (-).
+  double pd_spring = 1.0;
   /// Power-damping characteristic indentation (m): the damping is pd_factor * c at d = pd_dc.
   /// 1 mm is the size of the 7in tool's impacts (contact_law.hpp); a preset sets its own.
   double pd_dc = 1e-3;

@@ -30,6 +30,7 @@ from types import MappingProxyType
 from typing import Any, Protocol
 
 from vadsim.blind.independent.effects import EFFECTS, nearest_library
+from vadsim.blind.independent.model import preset_params
 from vadsim.blind.independent.recording import IndependentSpec
 from vadsim.model.change import ModelChange
 
@@ -115,7 +116,8 @@ class Scenario:
                              "(beta (x2 - x3) + psi); a theta0 nuisance cannot be written")
         if effects and not self.truths:
             object.__setattr__(self, "truths", tuple(
-                nearest_library(n, v, self.flows)[:2] for n, v in effects))
+                nearest_library(n, v, self.flows, preset_params(self.preset))[:2]
+                for n, v in effects))
         truths = tuple((str(k), MappingProxyType({n: float(v) for n, v in dict(vals).items()}))
                        for k, vals in self.truths)
         object.__setattr__(self, "truths", truths)
@@ -150,7 +152,8 @@ class Scenario:
     def library_point(self) -> bool:
         """The truth is a point of the candidate library (every vadsim scenario; an
         independent one whose effects are all exact members): the regret can evaluate it."""
-        return all(nearest_library(n, v, self.flows)[2] for n, v in self.effects)
+        return all(nearest_library(n, v, self.flows, preset_params(self.preset))[2]
+                   for n, v in self.effects)
 
     def independent_spec(self, duration_s: float | None = None,
                          settle_cycles: float = 100.0) -> IndependentSpec:
@@ -222,8 +225,8 @@ CLASSES: dict[str, str] = {
                        "on the anvil (scored as hydraulic_force[anvil])",
     "indep_friction": "independent generator: Stribeck friction anvil-housing, algebraic "
                       "regularisation (scored as anvil_friction)",
-    "indep_contact": "independent generator: a Hertzian impact face k d^1.5, outside the "
-                     "families (scored as contact_law, identification only)",
+    "indep_contact": "independent generator: a Hertzian impact face k d^1.5 with "
+                     "Hunt-Crossley damping, written apart (contact_law[impact])",
 }
 """Classes of the default benchmark and what each tests."""
 

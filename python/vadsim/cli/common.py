@@ -40,7 +40,8 @@ __all__ = [
 ]
 
 DEFAULT_PRESET = "7in-cde"
-LAWS = ("kelvin_voigt", "kelvin_voigt_no_tension", "hunt_crossley", "power_damping")
+LAWS = ("kelvin_voigt", "kelvin_voigt_no_tension", "hunt_crossley", "power_damping",
+        "power_damping_impact")
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 

@@ -34,10 +34,24 @@ Families of missing physics (group ``"physics"``)
     never pulls. Changes impact peaks and rebound at every flow, most where impacts are hard.
     No exact null: factor 1, s = 0 is Kelvin-Voigt *without* tension, not the dissertation's
     law, which keeps it.
+``contact_law[impact]``
+    The impact face alone as two curved steel faces: Hertz's spring with Hunt and Crossley's
+    damping, ``max(0, stiffness kI d_c (d / d_c)^1.5 + factor cI (d / d_c)^1.5 d')`` (law
+    ``"power_damping_impact"``, ``pd_spring = pd_shape = 1.5``), ``stiffness`` in [0.25, 4]
+    (log; the force at d = d_c relative to the linear face's ``kI d_c``), ``factor`` in
+    [0.03, 3] (log; the damping at d_c relative to ``cI``). Hunt-Crossley's alpha (s/m) is
+    ``factor cI / (stiffness kI d_c)``. Softer than the linear face in light impacts and
+    stiffer in hard ones, so it reshapes the impact peaks against flow; the spring, the
+    shoulders and the rock keep Table 2.1's Kelvin-Voigt law. No exact null.
 ``anvil_friction``
     Coulomb friction ``force`` (N/kg) between anvil and housing (seals, splines). Dissipates
     in proportion to sliding distance: it damps the anvil's travel and may stop weak strokes,
     so it changes regimes and peaks where the stroke is short. Null: 0.
+``anvil_friction[stribeck]``
+    The same friction with a Stribeck peak, ``(force + (peak - 1) force exp(-(v / v_s)^2))
+    tanh(v / v_eps)``: ``peak`` in [1, 3] the force at rest over the kinetic ``force``,
+    ``v_s`` in [0.01, 0.3] m/s (log) the velocity over which it falls (seals and splines
+    stick harder than they slide). Null: force 0.
 ``string_radiation``
     A dashpot ``c`` (N s/m per kg) from the MWD to the ground: the impedance of the drill
     string above, into which waves leave instead of reflecting at the top spring. Damps the
@@ -87,9 +101,14 @@ from scipy import signal
 from vadsim.model.change import FLOW_REF_GPM, ModelChange
 from vadsim.model.settings import ExtraSpec
 
-__all__ = ["BODIES", "CANDIDATES", "SENSOR_SETS", "SURFACES", "Candidate", "ModelChange",
-           "ParamSpec", "candidate", "candidate_ids", "keys_for", "lateral_coupling",
+__all__ = ["BODIES", "CANDIDATES", "HERTZ_EXPONENT", "SENSOR_SETS", "SURFACES", "Candidate",
+           "ModelChange", "ParamSpec", "candidate", "candidate_ids", "keys_for", "lateral_coupling",
            "mount_resonance"]
+
+
+HERTZ_EXPONENT = 1.5
+"""Hertz's exponent of the force between two curved elastic faces against their
+indentation (and Hunt-Crossley's damping's, which follows the spring's)."""
 
 
 @dataclass(frozen=True)
@@ -317,6 +336,27 @@ def _contact_law() -> Candidate:
     )
 
 
+def _contact_law_impact() -> Candidate:
+    def build(v: Mapping[str, float]) -> ModelChange:
+        return ModelChange(law="power_damping_impact",
+                           scales={"kI": v["stiffness"]} if v["stiffness"] != 1.0 else {},
+                           overrides={"pd_factor": v["factor"], "pd_shape": HERTZ_EXPONENT,
+                                      "pd_spring": HERTZ_EXPONENT})
+
+    return Candidate(
+        id="contact_law", variant="impact",
+        params=(ParamSpec("stiffness", 0.25, 4.0, "-", "log", None, grid=9),
+                ParamSpec("factor", 0.03, 3.0, "-", "log", None, grid=5)),
+        side="model",
+        signature=("The impact face as Hertz's curved faces with Hunt-Crossley damping, "
+                   "max(0, stiffness kI d_c (d/d_c)^1.5 + factor cI (d/d_c)^1.5 d'): softer "
+                   "than the linear face below d_c and stiffer above, never pulling; changes "
+                   "the impact peaks' size and width at every flow, most at high flow where "
+                   "impacts are hard. The other surfaces keep Table 2.1's law."),
+        build=build, fixed={"law": "power_damping_impact"},
+    )
+
+
 def _friction() -> Candidate:
     return Candidate(
         id="anvil_friction", variant="",
@@ -327,6 +367,28 @@ def _friction() -> Candidate:
         build=lambda v: ModelChange(extras=[ExtraSpec.of("friction", body="anvil",
                                                         other="housing", force=v["force"])]
                                     if v["force"] > 0 else []),
+    )
+
+
+def _friction_stribeck() -> Candidate:
+    def build(v: Mapping[str, float]) -> ModelChange:
+        if v["force"] == 0.0:
+            return ModelChange()
+        return ModelChange(extras=[ExtraSpec.of(
+            "friction", body="anvil", other="housing", force=v["force"],
+            static_force=v["force"] * v["peak"], v_s=v["v_s"])])
+
+    return Candidate(
+        id="anvil_friction", variant="stribeck",
+        params=(ParamSpec("force", 0.0, 400.0, "N/kg", "linear", 0.0),
+                ParamSpec("peak", 1.0, 3.0, "-", "linear", None, grid=3),
+                ParamSpec("v_s", 0.01, 0.3, "m/s", "log", None, grid=3)),
+        side="model",
+        signature=("Friction between anvil and housing with a Stribeck peak: force x peak "
+                   "at rest, falling to the kinetic force over v_s. Like Coulomb's, it "
+                   "shortens or stops weak strokes; the peak holds the anvil longer at its "
+                   "turning points, so it shifts the strike's timing more than its size."),
+        build=build, fixed={"law": "stribeck"},
     )
 
 
@@ -448,7 +510,8 @@ def _mass(body: str) -> Candidate:
 
 
 CANDIDATES: dict[str, Candidate] = {c.key: c for c in (
-    _hydraulic("anvil"), _hydraulic("bit"), _contact_law(), _friction(), _radiation(),
+    _hydraulic("anvil"), _hydraulic("bit"), _contact_law(), _contact_law_impact(), _friction(),
+    _friction_stribeck(), _radiation(),
     _axial_lateral(), *(_sensor_chain(v) for v in SENSOR_SETS), _excitation_amplitude(),
     _excitation_phase(), *(_contact_stiffness(v) for v in SURFACES), _rock_stiffness(),
     *(_mass(v) for v in BODIES))}
@@ -473,7 +536,9 @@ def candidate(key: str) -> Candidate:
 
 
 def keys_for(ids: list[str] | tuple[str, ...] | None) -> list[str]:
-    """Candidate keys for ids or keys (None: all); an id with variants gives all of them."""
+    """Candidate keys for ids or keys (None: all); an id with variants gives all of them. A
+    name that is a key stays that key: ``"contact_law"`` is the four surfaces' family, not
+    ``"contact_law[impact]"`` too."""
     if ids is None:
         return list(CANDIDATES)
     out: list[str] = []

@@ -58,6 +58,7 @@ LAWS = {
     "kelvin_voigt_no_tension": _core.ContactLawKind.KelvinVoigtNoTension,
     "hunt_crossley": _core.ContactLawKind.HuntCrossley,
     "power_damping": _core.ContactLawKind.PowerDamping,
+    "power_damping_impact": _core.ContactLawKind.PowerDampingImpact,
 }
 
 
@@ -160,7 +161,8 @@ def _build_presets() -> dict[str, Preset]:
     # 5 mm for the 9.5in tool, whose peak indentations at 400-750 gal/min are 1.5-2.8 mm at
     # the spring, 7-9 mm at the impact face and 13 mm at the on-bottom shoulder (geometric
     # mean 6 mm).
-    defaults = {"hc_n": 1.0, "hc_alpha": 0.2, "pd_factor": 1.0, "pd_shape": 0.0, "pd_dc": 1e-3}
+    defaults = {"hc_n": 1.0, "hc_alpha": 0.2, "pd_factor": 1.0, "pd_shape": 0.0, "pd_dc": 1e-3,
+                "pd_spring": 1.0}
     seven = {**base7, "l0": 0.7, "wob": 1000.0, **defaults}
     note7 = (
         "l0 = 0.7 m and wob = 1000 N/kg (m* = 17.8 kg for 4 klbf) reproduce the dissertation's "
@@ -426,8 +428,11 @@ def make_params(
         Parameters to replace, by name.
     law
         Contact law of the impact surfaces: ``"kelvin_voigt"`` (default),
-        ``"kelvin_voigt_no_tension"``, ``"hunt_crossley"`` (``hc_n``, ``hc_alpha``) or
-        ``"power_damping"`` (``max(0, k d + pd_factor c (d / pd_dc)^pd_shape d')``).
+        ``"kelvin_voigt_no_tension"``, ``"hunt_crossley"`` (``hc_n``, ``hc_alpha``),
+        ``"power_damping"`` (``max(0, k pd_dc (d / pd_dc)^pd_spring + pd_factor c
+        (d / pd_dc)^pd_shape d')`` at the four surfaces; ``pd_spring`` 1 is the linear ``k d``)
+        or ``"power_damping_impact"`` (that law at the impact face only, Kelvin-Voigt at the
+        other three).
 
     Raises
     ------

@@ -74,7 +74,9 @@ def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
         ``"hydraulic"``: ``c * Q^n`` (N/kg per (gal/min)^n, ``n`` in [0, 4], default 2: a
         turbulent pressure drop) pushing ``acts_on`` ("anvil" or "bit") towards the rock.
         ``"friction"``: Coulomb friction of ``force`` N/kg between ``body`` (default "anvil")
-        and ``other`` (default "housing"), regularised over ``v_eps`` m/s. ``"dashpot"``:
+        and ``other`` (default "housing"), regularised over ``v_eps`` m/s; with
+        ``static_force`` (N/kg, at least ``force``) a Stribeck peak: the level is ``force +
+        (static_force - force) exp(-(v / v_s)^2)`` (``v_s`` m/s, default 0.05). ``"dashpot"``:
         spring ``k`` and dashpot ``c`` from ``body`` to ``other`` (None: the ground), acting
         on displacements from the static state.
     """
@@ -102,7 +104,8 @@ def extra_force(kind: str, **kw: Any) -> _core.ExtraForce:
     elif kind == "friction":
         body = dof("body", kw.pop("body", "anvil"))
         other = dof("other", kw.pop("other", "housing"))
-        out = _core.CoulombFriction(body, other, need("force"), opt("v_eps", 1e-3))
+        out = _core.CoulombFriction(body, other, need("force"), opt("v_eps", 1e-3),
+                                    opt("static_force", math.nan), opt("v_s", 0.05))
     elif kind == "dashpot":
         if "body" not in kw:
             raise ValueError("extra force 'dashpot' needs the argument 'body'")

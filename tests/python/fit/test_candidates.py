@@ -40,7 +40,14 @@ AGREED: dict[str, tuple[str, dict[str, tuple[float, float, str, float | None]], 
     "contact_law": ("contact_law", {"factor": (0.1, 10.0, "log", None),
                                     "s": (0.0, 2.0, "linear", None)},
                     {"law": "power_damping"}),
+    "contact_law[impact]": ("contact_law", {"stiffness": (0.25, 4.0, "log", None),
+                                            "factor": (0.03, 3.0, "log", None)},
+                            {"law": "power_damping_impact"}),
     "anvil_friction": ("anvil_friction", {"force": (0.0, 400.0, "linear", 0.0)}, {}),
+    "anvil_friction[stribeck]": ("anvil_friction", {"force": (0.0, 400.0, "linear", 0.0),
+                                                    "peak": (1.0, 3.0, "linear", None),
+                                                    "v_s": (0.01, 0.3, "log", None)},
+                                 {"law": "stribeck"}),
     "string_radiation": ("string_radiation", {"c": (0.0, 2.0e5, "linear", 0.0)}, {}),
     "axial_lateral": ("axial_lateral", {"gain": (0.0, 6.0, "linear", 0.0),
                                         "f_lat_hz": (25.0, 480.0, "log", None)}, {}),
@@ -100,8 +107,10 @@ def test_keys_ids_parameters_and_fixed_choices_are_the_agreed_ones():
 def test_keys_for_expands_an_id_to_all_its_variants():
     assert keys_for(["mass"]) == [f"mass[{b}]" for b in
                                   ("bit", "anvil", "housing", "motor", "sub", "lwd", "mwd")]
+    # "contact_law" is a key as well as an id: the four surfaces' family, not its impact variant
     assert keys_for(["sensor_chain", "contact_law"]) == [
         "sensor_chain[both]", "sensor_chain[x1]", "sensor_chain[x5]", "contact_law"]
+    assert keys_for(["contact_law[impact]"]) == ["contact_law[impact]"]
     assert keys_for(["mass[lwd]", "mass"])[0] == "mass[lwd]"  # a key first, no repeats
     assert len(keys_for(["mass[lwd]", "mass"])) == 7
     assert keys_for(None) == list(CANDIDATES)
@@ -117,7 +126,10 @@ def test_every_key_has_valid_bounds_grid_and_changes(key):
     c = CANDIDATES[key]
     assert c.signature and c.side in ("model", "measurement")
     assert c.group in ("physics", "quantity")
-    assert len(c.params) <= 2  # the diagnosis' grid takes at most two
+    # grids multiply: a third parameter (a friction's Stribeck peak and velocity) only where
+    # two of them take at most 3 grid points, so a probe stays at 5 x 3 x 3 points
+    assert len(c.params) <= 3
+    assert len(c.params) < 3 or sorted(p.grid for p in c.params)[:2] == [3, 3]
     for p in c.params:
         assert p.lo < p.hi and p.grid >= 2 and p.scale in ("linear", "log")
         assert p.null is None or p.lo <= p.null <= p.hi

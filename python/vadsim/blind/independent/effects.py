@@ -17,14 +17,17 @@ written another way, some are outside every family on purpose:
 ``friction_stribeck``
     Friction between anvil and housing with a Stribeck peak and an algebraic
     regularisation: ``(force + (static - force) exp(-(v/v_s)^2)) v / sqrt(v^2 + v0^2)``
-    against the relative velocity ``v``. The library's ``anvil_friction`` is a constant
-    ``force tanh(v / v_eps)``.
+    against the relative velocity ``v``. The library's ``anvil_friction[stribeck]`` has the
+    same peak with another regularisation, ``tanh(v / 1 mm/s)``, so the truth is its nearest
+    member (force, peak = static / force, v_s), not an exact one; ``anvil_friction`` is a
+    constant ``force tanh(v / v_eps)``.
 ``hertz_contact``
     A Hertzian impact face ``k_h d^1.5 (1 + 1.5 damping d')`` without tension (Hunt and
     Crossley's damping on a Hertz spring) in place of the Kelvin-Voigt one: adds
     ``F_hertz - F_kv`` between anvil and bit. ``k_h = stiffness kI / sqrt(d_c)`` matches the
-    linear spring at the indentation ``d_c``. Outside every family (``contact_law``'s spring
-    stays linear); scored as identification of ``contact_law`` only.
+    linear spring at the indentation ``d_c``. Exactly the library's ``contact_law[impact]``
+    (Hertz's spring with Hunt-Crossley damping at the impact face) at ``stiffness`` and
+    ``factor = 1.5 damping stiffness kI d_c / cI``, written here in the generator's own form.
 
 Each effect is built by :func:`build_effect` from its name and parameters, so a scenario
 stays data (names and numbers) and truth.json can record it.
@@ -38,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from vadsim.blind.independent.model import Effect
+from vadsim.blind.independent.model import Effect, preset_params
 
 __all__ = ["EFFECTS", "build_effect", "nearest_hydraulic", "nearest_library"]
 
@@ -124,8 +127,8 @@ EFFECTS: dict[str, Any] = {
     "hydraulic_quadratic": (hydraulic_quadratic, ("f400", "q_on", "width"),
                             "hydraulic_force[anvil]"),
     "friction_stribeck": (friction_stribeck, ("force", "static", "v_s", "v0"),
-                          "anvil_friction"),
-    "hertz_contact": (hertz_contact, ("stiffness", "damping"), "contact_law"),
+                          "anvil_friction[stribeck]"),
+    "hertz_contact": (hertz_contact, ("stiffness", "damping"), "contact_law[impact]"),
 }
 """Each effect's factory, its parameters in order, and the library key it is scored as."""
 
@@ -161,13 +164,16 @@ def nearest_hydraulic(f400: float, q_on: float, width: float,
     return {"f_ref": round(best[1], 2), "n": round(best[2], 2)}
 
 
-def nearest_library(name: str, values: Mapping[str, float], flows: Sequence[float]
+def nearest_library(name: str, values: Mapping[str, float], flows: Sequence[float],
+                    params: Mapping[str, float] | None = None
                     ) -> tuple[str, dict[str, float], bool]:
     """How an effect is scored: ``(library key, values, exact)``.
 
     ``exact`` says whether the effect *is* that library member at those values (then the
     regret can evaluate the truth); otherwise the values are the nearest member's where one
     is defined (parameter errors are scored against them), or empty (identification only).
+    ``params`` (Table 2.1 of the recording model; default the 7in tool's) converts an effect
+    whose library form is relative to a surface's own constants.
     """
     key = EFFECTS[name][2]
     if name == "excitation_power":
@@ -176,5 +182,12 @@ def nearest_library(name: str, values: Mapping[str, float], flows: Sequence[floa
         return key, nearest_hydraulic(values["f400"], values["q_on"], values["width"],
                                       flows), False
     if name == "friction_stribeck":
-        return key, {"force": float(values["force"])}, False
+        force = float(values["force"])
+        return key, {"force": force, "peak": float(values["static"]) / force,
+                     "v_s": float(values["v_s"])}, False
+    if name == "hertz_contact":
+        p = preset_params("7in-cde") if params is None else params
+        stiffness = float(values["stiffness"])
+        factor = 1.5 * float(values["damping"]) * stiffness * p["kI"] * D_C / p["cI"]
+        return key, {"stiffness": stiffness, "factor": factor}, True
     return key, {}, False
