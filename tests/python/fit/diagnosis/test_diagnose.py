@@ -346,6 +346,19 @@ def test_pairs_combine_the_candidates_that_showed_most_at_either_nuisance_anchor
     # a probe that gains nothing anywhere is never paired, nor one without grid costs
     assert all("string_radiation" not in (a, b) for a, b, _ in pair_prospects(probes, top=6))
     assert pair_prospects([replace(f, point_rss={}) for f in probes], top=3) == []
+    # a variant that extends another (Stribeck friction holds Coulomb's at peak 1) cuts more
+    # on its larger grid; it stands for its id only where its probe also scores better
+    coulomb = next(f.score for f in probes if f.keys == ("anvil_friction",))
+
+    def stribeck(score):
+        return replace(probe("anvil_friction[stribeck]", (0.0, 1.0, 0.05), (200.0, 1.5, 0.05),
+                             0.0, 0.69), score=score)
+
+    for score, chosen in ((coulomb + 1.0, "anvil_friction"),
+                          (coulomb - 1.0, "anvil_friction[stribeck]")):
+        keys = {k for a, b, _ in pair_prospects([*probes, stribeck(score)], top=3)
+                for k in (a, b)}
+        assert chosen in keys and len({k for k in keys if k.startswith("anvil_friction")}) == 1
 
 
 def test_a_pair_with_a_vanished_candidate_is_a_single_effect():
