@@ -28,10 +28,8 @@ ContactForce PowerDampingLaw::eval(double d, double dd) const {
   }
   if (m_ == 1.0) return {k_ * d + lambda_ * w * dd, k_ + lambda_ * dw * dd, lambda_ * w};
   // k d_c (d/d_c)^m: its slope k m (d/d_c)^(m-1) is 0 at first touch for m > 1.
-  const double x = dp * inv_dc_;
-  const double spring_slope = k_ * m_ * std::pow(x, m_ - 1.0);
-  return {k_dc_ * x * std::pow(x, m_ - 1.0) + lambda_ * w * dd, spring_slope + lambda_ * dw * dd,
-          lambda_ * w};
+  const double x = dp * inv_dc_, x_m1 = std::pow(x, m_ - 1.0);
+  return {k_dc_ * x * x_m1 + lambda_ * w * dd, k_ * m_ * x_m1 + lambda_ * dw * dd, lambda_ * w};
 }
 
 double PowerDampingLaw::push_indicator(double d, double dd) const {
@@ -42,15 +40,16 @@ double PowerDampingLaw::push_indicator(double d, double dd) const {
   return k_dc_ + lambda_ * std::pow(dp * inv_dc_, s_ - m_) * dd;
 }
 
-std::shared_ptr<const ContactLaw> make_contact_law(ContactLawKind kind, double k, double c,
-                                                   const Params& p) {
+std::shared_ptr<const ContactLaw> make_contact_law(int s, double k, double c, const Params& p) {
+  ContactLawKind kind = (s == kRock) ? ContactLawKind::KelvinVoigt : p.law;
+  if (kind == ContactLawKind::PowerDampingImpact)
+    kind = (s == kImpact) ? ContactLawKind::PowerDamping : ContactLawKind::KelvinVoigt;
   switch (kind) {
     case ContactLawKind::KelvinVoigtNoTension:
       return std::make_shared<KelvinVoigtLaw>(k, c, false);
     case ContactLawKind::HuntCrossley:
       return std::make_shared<HuntCrossleyLaw>(k, p.hc_n, p.hc_alpha);
     case ContactLawKind::PowerDamping:
-    case ContactLawKind::PowerDampingImpact:  // Model picks the surfaces; the law is the same
       return std::make_shared<PowerDampingLaw>(k, c, p.pd_factor, p.pd_shape, p.pd_dc,
                                                p.pd_spring);
     case ContactLawKind::KelvinVoigt:

@@ -55,8 +55,7 @@ CoulombFriction::CoulombFriction(int a, int b, double force, double v_eps, doubl
 void CoulombFriction::add_force(double, double, const Vec7CRef&, const Vec7CRef& v,
                                 Vec7& f) const {
   const double vr = v[a_] - (b_ >= 0 ? v[b_] : 0.0);
-  const double level = peak_ == 0.0 ? force_ : force_ + peak_ * std::exp(-vr * vr * inv_vs2_);
-  const double F = level * std::tanh(vr / v_eps_);
+  const double F = (force_ + stribeck_excess(vr)) * std::tanh(vr / v_eps_);
   f[a_] -= F;
   if (b_ >= 0) f[b_] += F;
 }
@@ -65,11 +64,9 @@ void CoulombFriction::add_jacobian(double, double, const Vec7CRef&, const Vec7CR
                                    Mat7& dfdv) const {
   const double vr = v[a_] - (b_ >= 0 ? v[b_] : 0.0);
   const double th = std::tanh(vr / v_eps_);
-  double g = force_ * (1.0 - th * th) / v_eps_;  // dF/dvr
-  if (peak_ != 0.0) {
-    const double bump = peak_ * std::exp(-vr * vr * inv_vs2_);
-    g = (force_ + bump) * (1.0 - th * th) / v_eps_ - 2.0 * vr * inv_vs2_ * bump * th;
-  }
+  const double excess = stribeck_excess(vr);
+  // dF/dvr of (force + excess(vr)) tanh(vr / v_eps); excess' = -2 vr / v_s^2 excess
+  const double g = (force_ + excess) * (1.0 - th * th) / v_eps_ - 2.0 * vr * inv_vs2_ * excess * th;
   dfdv(a_, a_) -= g;
   if (b_ >= 0) {
     dfdv(a_, b_) += g;

@@ -98,12 +98,7 @@ Model::Model(const Params& p, std::vector<ExtraForcePtr> extras)
   }
   const double kc[kSurfaces] = {p_.kS, p_.kI, p_.kOff, p_.kOn, p_.kR};
   const double cc[kSurfaces] = {p_.cS, p_.cI, p_.cOff, p_.cOn, p_.cR};
-  for (int s = 0; s < kSurfaces; ++s) {
-    auto kind = (s == kRock) ? ContactLawKind::KelvinVoigt : p_.law;
-    if (kind == ContactLawKind::PowerDampingImpact)
-      kind = (s == kImpact) ? ContactLawKind::PowerDamping : ContactLawKind::KelvinVoigt;
-    laws_[s] = make_contact_law(kind, kc[s], cc[s], p_);
-  }
+  for (int s = 0; s < kSurfaces; ++s) laws_[s] = make_contact_law(s, kc[s], cc[s], p_);
 }
 
 double Model::push_indicator(int s, const Eigen::Ref<const State>& y) const {

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "vadsim/params.hpp"
+#include "vadsim/types.hpp"
 
 namespace vadsim {
 
@@ -98,8 +99,9 @@ class PowerDampingLaw final : public ContactLaw {
   double k_, lambda_, s_, m_, inv_dc_, k_dc_;
 };
 
-/// @brief The law a surface gets for the chosen kind (the rock always keeps Kelvin-Voigt).
-std::shared_ptr<const ContactLaw> make_contact_law(ContactLawKind kind, double k, double c,
-                                                   const Params& p);
+/// @brief The law surface s (a Surface) gets under Params::law, with its stiffness k and
+/// damping c: the rock always keeps Kelvin-Voigt, and PowerDampingImpact gives the
+/// power-damping law to the impact face alone (the others keep Kelvin-Voigt).
+std::shared_ptr<const ContactLaw> make_contact_law(int s, double k, double c, const Params& p);
 
 }  // namespace vadsim

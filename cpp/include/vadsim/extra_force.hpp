@@ -73,6 +73,12 @@ class CoulombFriction final : public ExtraForce {
                     Mat7& dfdv) const override;
 
  private:
+  /// @brief The Stribeck excess over the kinetic force at sliding velocity vr (0 without
+  /// a peak, so that Coulomb runs stay bit for bit and skip the exponential).
+  double stribeck_excess(double vr) const {
+    return peak_ == 0.0 ? 0.0 : peak_ * std::exp(-vr * vr * inv_vs2_);
+  }
+
   int a_, b_;
   double force_, v_eps_;
   double peak_;        ///< static - force (0: Coulomb, bit for bit)

@@ -115,9 +115,9 @@ class Scenario:
             raise ValueError("the independent generator takes the phase at rest from MODEL.md "
                              "(beta (x2 - x3) + psi); a theta0 nuisance cannot be written")
         if effects and not self.truths:
+            params = preset_params(self.preset)
             object.__setattr__(self, "truths", tuple(
-                nearest_library(n, v, self.flows, preset_params(self.preset))[:2]
-                for n, v in effects))
+                nearest_library(n, v, self.flows, params)[:2] for n, v in effects))
         truths = tuple((str(k), MappingProxyType({n: float(v) for n, v in dict(vals).items()}))
                        for k, vals in self.truths)
         object.__setattr__(self, "truths", truths)
@@ -152,8 +152,10 @@ class Scenario:
     def library_point(self) -> bool:
         """The truth is a point of the candidate library (every vadsim scenario; an
         independent one whose effects are all exact members): the regret can evaluate it."""
-        return all(nearest_library(n, v, self.flows, preset_params(self.preset))[2]
-                   for n, v in self.effects)
+        if not self.effects:
+            return True
+        params = preset_params(self.preset)
+        return all(nearest_library(n, v, self.flows, params)[2] for n, v in self.effects)
 
     def independent_spec(self, duration_s: float | None = None,
                          settle_cycles: float = 100.0) -> IndependentSpec:
