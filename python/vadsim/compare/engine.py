@@ -45,6 +45,7 @@ from vadsim.model.simulate import SolverError
 from vadsim.signals.features import Feature
 from vadsim.signals.fold_features import (
     fold_periods,
+    has_quantiles,
 )
 
 __all__ = ["NOISE_SEED", "NOISE_STEP_G", "CampaignEvaluator", "EventEval"]
@@ -173,6 +174,9 @@ class CampaignEvaluator:
         self.keys: dict[str, list[str]] = {e: list(k) for e, k in (keys or {}).items()}
         self.fold_periods = {e: tuple(sorted(fold_periods(t))) for e, t in self.targets.items()}
         """Event -> the fold periods its recording's features use: the model folds no other."""
+        self.quantiles = {e: has_quantiles(t) for e, t in self.targets.items()}
+        """Event -> whether its recording's features hold quantiles: else the model takes
+        none."""
         # a full-resolution comparison measures no sensor: no noise to estimate
         self.noise_g = (_noise_option(noise, campaign, settings) if resolution == "sensor"
                         else {})
@@ -305,7 +309,8 @@ class CampaignEvaluator:
             return self.cache.key("event-simulation", self.resolution, settings, ev.flow_gpm,
                                   float(ev.wob_klbf), fine_rate_hz(self.campaign),
                                   self.campaign.sensors, self.phases, self.folded,
-                                  self.noise_g, self.fold_periods.get(ev.id), start)
+                                  self.noise_g, self.fold_periods.get(ev.id),
+                                  self.quantiles.get(ev.id, True), start)
         except (Uncacheable, ValueError):
             return None
 
@@ -341,7 +346,8 @@ class CampaignEvaluator:
             sim = measure_event(self.campaign, ev, run.result, phases=self.phases,
                                 measurement=change.measurement, folded=self.folded,
                                 full_features=False, noise_g=self.noise_g, seed=NOISE_SEED,
-                                fold_periods=self.fold_periods.get(eid))
+                                fold_periods=self.fold_periods.get(eid),
+                                quantiles=self.quantiles.get(eid, True))
             sim.start, sim.multistable = run.start, run.multistable
             return sim
         except (SolverError, ValueError):

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from vadsim._checks import number
 from vadsim.campaigns.format import CAMPAIGN_FILE, Campaign, Event, excerpt
 from vadsim.model.change import Measurement
 from vadsim.model.defaults import DEFAULTS
@@ -268,7 +269,7 @@ def fine_series(r: SimulationResult, rate_hz: float, dofs: Iterable[int]
     t0, t1 = r.window
     n = math.floor((t1 - t0) * rate_hz * (1 + 1e-12)) + 1
     t = t0 + np.arange(n) * (1.0 / rate_hz)  # as the core forms its grid: the same bits
-    return t, {d: r.orbit.at(t, d) for d in dofs}
+    return t, r.orbit.at_bodies(t, dofs)
 
 
 @contextlib.contextmanager
@@ -309,6 +310,25 @@ def summary_event(campaign: Campaign, event: Event, settings: RunSettings) -> Ev
 
 def _phase_average(per_phase: list[dict[str, Feature]]
                    ) -> tuple[dict[str, Feature], dict[str, float]]:
+    """Each feature's mean over the sampling phases (value, spread and n summed), and the
+    standard deviation of its values across them."""
+    keys = list(per_phase[0])
+    if any(f.keys() != per_phase[0].keys() for f in per_phase[1:]):
+        return _phase_average_by_key(per_phase)
+    # All phases hold the same keys (the rule): one reduction per row gives the same bits
+    # as one per key.
+    values = np.array([[f[k].value for f in per_phase] for k in keys])
+    spreads = np.array([[f[k].spread for f in per_phase] for k in keys]).mean(axis=1)
+    means = values.mean(axis=1)
+    sds = values.std(axis=1) if len(per_phase) > 1 else np.zeros(len(keys))
+    out = {k: Feature(float(means[i]), float(spreads[i]),
+                      int(sum(f[k].n for f in per_phase)))
+           for i, k in enumerate(keys)}
+    return out, {k: float(sds[i]) for i, k in enumerate(keys)}
+
+
+def _phase_average_by_key(per_phase: list[dict[str, Feature]]
+                          ) -> tuple[dict[str, Feature], dict[str, float]]:
     out: dict[str, Feature] = {}
     sd: dict[str, float] = {}
     for key in per_phase[0]:
@@ -323,19 +343,42 @@ def _phase_average(per_phase: list[dict[str, Feature]]
 def _model_folded(campaign: Campaign, t: np.ndarray, f_exc_hz: float,
                   filtered: Mapping[str, FilteredSignal],
                   periods: Iterable[int] | None = None,
-                  noise_g: Mapping[str, float] | None = None) -> dict[str, Feature]:
+                  noise_g: Mapping[str, float] | None = None,
+                  quantiles: bool = True) -> dict[str, Feature]:
     """Folded and distribution features of one rate group's fine-grid signals, through each
     sensor's analog chain (its low-pass, done in ``filtered``, and range), folded at the run's
-    exact frequency (every period, or ``periods``); the quantiles with each sensor's
-    ``noise_g``, as a recording's hold it."""
+    exact frequency (every period, or ``periods``); the quantiles (unless not
+    ``quantiles``) with each sensor's ``noise_g``, as a recording's hold it."""
     analog = {name: f.analog(campaign.sensors[name].range_g)[0]
               for name, f in filtered.items()}
     noise = {name: float((noise_g or {}).get(name, 0.0)) for name in filtered}
     rails = {name: campaign.sensors[name].range_g for name in filtered}
     if periods is None:
-        return model_fold_features(t, analog, f_exc_hz, noise_g=noise, range_g=rails)
+        return model_fold_features(t, analog, f_exc_hz, noise_g=noise, range_g=rails,
+                                   quantiles=quantiles)
     return model_fold_features(t, analog, f_exc_hz, periods=periods, noise_g=noise,
-                               range_g=rails)
+                               range_g=rails, quantiles=quantiles)
+
+
+def _phase_noise(campaign: Campaign, filtered: Mapping[str, FilteredSignal], phases: int,
+                 noise: Mapping[str, float], rng: np.random.Generator
+                 ) -> dict[str, list[np.ndarray | None]]:
+    """Each sensor's noise at each sampling phase, drawn from ``rng`` phase by phase and
+    sensor by sensor, as the measurement always drew them (a sensor without noise draws
+    nothing)."""
+    draws: dict[str, list[np.ndarray | None]] = {name: [] for name in filtered}
+    for k in range(phases):
+        for name, signal in filtered.items():
+            sigma = number(f"noise_g[{name!r}]", noise.get(name, 0.0))
+            if not math.isfinite(sigma) or sigma < 0.0:
+                raise ValueError(f"noise_g[{name!r}] must be a finite number >= 0, got "
+                                 f"{sigma!r}")
+            if sigma > 0.0:
+                size = signal.sample_times(campaign.sensors[name].rate_hz, k / phases).size
+                draws[name].append(rng.normal(0.0, sigma, size=size))
+            else:
+                draws[name].append(None)
+    return draws
 
 
 def measure_event(
@@ -351,6 +394,7 @@ def measure_event(
     folded: bool | None = None,
     full_features: bool = True,
     fold_periods: Iterable[int] | None = None,
+    quantiles: bool = True,
 ) -> EventSimulation:
     """Features of a run through each sensor's chain and at full resolution.
 
@@ -380,6 +424,8 @@ def measure_event(
     ``fold_periods`` folds only those periods (default: 1-4): a comparison with a recording
     needs only the period the recording folded at (:func:`vadsim.signals.fold_features.
     fold_periods` of its keys), and the folds are half of a measurement's cost.
+    ``quantiles=False`` skips the distribution features likewise (a recording that folded
+    has none: :func:`vadsim.signals.fold_features.has_quantiles`).
 
     ``noise_g`` (one value, or one per sensor name) adds each sensor's Gaussian noise to the
     sampled series, drawn from ``seed``: a recording's window features (peaks, quantiles,
@@ -408,22 +454,24 @@ def measure_event(
         filtered = {name: FilteredSignal(t, full[name], campaign.sensors[name].lowpass_hz)
                     for name in names}
         # each sensor's samples at every phase, reduced together (phase_features)
-        sampled: dict[str, list[np.ndarray]] = {name: [] for name in names}
-        clipped: dict[str, list[np.ndarray]] = {name: [] for name in names}
-        for k in range(phases):
-            for name in names:
-                s = campaign.sensors[name]
-                _, a_s, clip = filtered[name].sample(s.rate_hz, s.range_g, k / phases,
-                                                     noise.get(name, 0.0), rng)
-                sampled[name].append(a_s)
-                clipped[name].append(clip)
-                if keep_signals and k == 0:
-                    kept[name] = a_s
+        sampled: dict[str, list[np.ndarray]] = {}
+        clipped: dict[str, list[np.ndarray]] = {}
+        draws = _phase_noise(campaign, filtered, phases, noise, rng)
+        for name in names:
+            s = campaign.sensors[name]
+            got = filtered[name].sample_phases(s.rate_hz, s.range_g,
+                                               [k / phases for k in range(phases)],
+                                               draws[name])
+            sampled[name] = [a_s for a_s, _ in got]
+            clipped[name] = [clip for _, clip in got]
+            if keep_signals:
+                kept[name] = sampled[name][0]
         averaged, sd = _phase_average(phase_features(sampled, rate, r.f_exc_hz, clipped))
         sensor_feats.update(averaged)
         phase_sd.update(sd)
         if use_folded(folded):
-            fx = _model_folded(campaign, t, r.f_exc_hz, filtered, fold_periods, noise)
+            fx = _model_folded(campaign, t, r.f_exc_hz, filtered, fold_periods, noise,
+                               quantiles)
             sensor_feats.update(fx)
             phase_sd.update(dict.fromkeys(fx, 0.0))
         if full_features:

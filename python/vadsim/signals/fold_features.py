@@ -105,6 +105,7 @@ __all__ = [
     "distribution_features",
     "noise_floor_g",
     "fold_tag",
+    "has_quantiles",
     "recorded_fold_features",
     "reference_sensor",
 ]
@@ -129,6 +130,15 @@ def fold_periods(keys: Iterable[str]) -> set[int]:
     """The fold periods that feature ``keys`` use (``x1_fold_peak_g`` -> 1,
     ``x5_fold2_lag`` -> 2): a model measured for a recording's keys need fold no other."""
     return {int(m.group(1) or 1) for k in keys if (m := _FOLD_KEY.search(k))}
+
+
+_QUANTILE_KEY = re.compile(r"_q\d+(?:\.\d+)?_g$")
+
+
+def has_quantiles(keys: Iterable[str]) -> bool:
+    """Whether feature ``keys`` hold a distribution feature (``x1_q90_g``): a model measured
+    for a recording's keys takes no quantiles otherwise."""
+    return any(_QUANTILE_KEY.search(k) for k in keys)
 
 
 # --------------------------------------------------------------------------------------------

@@ -154,6 +154,7 @@ def model_fold_features(
     coarse: int = COARSE_BINS,
     noise_g: Mapping[str, float] | None = None,
     range_g: Mapping[str, float] | None = None,
+    quantiles: bool = True,
 ) -> dict[str, Feature]:
     """Every kind of folded and distribution feature of a simulated event (module docstring).
 
@@ -185,6 +186,10 @@ def model_fold_features(
         a fold's mean averages noise out.
     range_g : mapping of str to float, optional
         Each sensor's range, g, for that clipping.
+    quantiles : bool, optional
+        Give the distribution features; False skips them (a comparison with a recording
+        that folded compares none, and their selection over every fine sample was a seventh
+        of a diagnosis' measurement).
 
     Returns
     -------
@@ -198,7 +203,7 @@ def model_fold_features(
     stacked = np.stack([finite_1d(f"signals[{k!r}]", signals[k]) for k in names])
     noise, rails = dict(noise_g or {}), dict(range_g or {})
     out = {f"{name}_q{q:g}_g": Feature(float(v), math.nan, t_arr.size)
-           for i, (name, a) in enumerate(zip(names, stacked, strict=True))
+           for i, (name, a) in enumerate(zip(names, stacked, strict=True)) if quantiles
            for q, v in zip(QUANTILES, noisy_quantiles(a, noise.get(name, 0.0),
                                                       rails.get(name), i), strict=True)}
     wanted = sorted(set(periods))

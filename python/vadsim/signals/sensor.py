@@ -17,6 +17,7 @@ only after the simulated signal has gone through the same chain as the field sig
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -126,6 +127,7 @@ class FilteredSignal:
         self.t: np.ndarray = t_arr
         self.fine_rate_hz: float = 1.0 / _fine_step(t_arr)
         self.a: np.ndarray = _lowpass(a, self.fine_rate_hz, lowpass_hz)
+        self._sample_times: dict[tuple[float, float], np.ndarray] = {}
 
     def analog(self, range_g: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The filtered signal clipped at ``range_g``, and the clipped mask: what
@@ -141,32 +143,77 @@ class FilteredSignal:
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Steps 2-4 of the chain (sampling, noise, clipping): what :func:`sensor_chain`
         returns for these arguments."""
-        rate_hz = finite_positive("rate_hz", rate_hz)
-        range_g = finite_positive("range_g", range_g)
-        phase = number("phase", phase)
-        if not 0.0 <= phase < 1.0:
-            raise ValueError(f"phase must be in [0, 1) of a sample period, got {phase!r}")
+        rate_hz, range_g = self._checked_rates(rate_hz, range_g)
+        phase = self._checked_phase(phase)
         noise_g = number("noise_g", noise_g)
         if not math.isfinite(noise_g) or noise_g < 0.0:
             raise ValueError(f"noise_g must be a finite number >= 0, got {noise_g!r}")
+        t_s = self.sample_times(rate_hz, phase).copy()  # the caller's to keep
+        # The last sample time may exceed t[-1] by rounding only; np.interp holds the end value.
+        a_s = np.interp(t_s, self.t, self.a)
+        if noise_g > 0.0:
+            a_s = a_s + np.random.default_rng(rng).normal(0.0, noise_g, size=a_s.size)
+        clipped = np.abs(a_s) >= range_g
+        a_s = np.clip(a_s, -range_g, range_g)
+        return t_s, a_s, clipped
+
+    def sample_times(self, rate_hz: float, phase: float) -> np.ndarray:
+        """The times (s) :meth:`sample` takes its samples at (arguments checked there; kept,
+        read-only: a measurement draws each phase's noise to their number, then samples)."""
+        key = (rate_hz, phase)
+        got = self._sample_times.get(key)
+        if got is None:
+            t = self.t
+            n_samples = math.floor((t[-1] - t[0]) * rate_hz - phase + 1e-9) + 1
+            got = np.asarray(t[0] + (np.arange(n_samples) + phase) / rate_hz)
+            got.flags.writeable = False
+            self._sample_times[key] = got
+        return got
+
+    def sample_phases(self, rate_hz: float, range_g: float, phases: Sequence[float],
+                      noise: Sequence[np.ndarray | None]
+                      ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """:meth:`sample` at each of ``phases``, each with its own noise draw (``noise``: the
+        standard-normal draws already scaled, one per phase, the size of
+        :meth:`sample_times`; None for none): the samples and the clipped mask, the same to
+        the bit as one :meth:`sample` per phase with those draws. One interpolation serves
+        every phase: a measurement samples each run at eight."""
+        rate_hz, range_g = self._checked_rates(rate_hz, range_g)
+        times = [self.sample_times(rate_hz, self._checked_phase(p)) for p in phases]
+        if len(noise) != len(times):
+            raise ValueError(f"noise holds {len(noise)} draws for {len(times)} phases")
+        values = np.interp(np.concatenate(times), self.t, self.a)
+        out: list[tuple[np.ndarray, np.ndarray]] = []
+        start = 0
+        for t_s, draw in zip(times, noise, strict=True):
+            a_s = values[start:start + t_s.size]
+            start += t_s.size
+            if draw is not None:
+                if draw.shape != t_s.shape:
+                    raise ValueError(f"a noise draw of shape {draw.shape} for {t_s.size} "
+                                     "samples")
+                a_s = a_s + draw
+            clipped = np.abs(a_s) >= range_g
+            out.append((np.clip(a_s, -range_g, range_g), clipped))
+        return out
+
+    def _checked_rates(self, rate_hz: float, range_g: float) -> tuple[float, float]:
+        rate_hz = finite_positive("rate_hz", rate_hz)
+        range_g = finite_positive("range_g", range_g)
         if self.fine_rate_hz < MIN_OVERSAMPLING * rate_hz:
             raise ValueError(
                 f"rate_hz={rate_hz!r} is too fast for the fine grid t "
                 f"({self.fine_rate_hz:.6g} Hz); the grid must be at least "
                 f"{MIN_OVERSAMPLING:g} times faster than the sensor"
             )
-        t = self.t
-        n_samples = math.floor((t[-1] - t[0]) * rate_hz - phase + 1e-9) + 1
-        t_s = t[0] + (np.arange(n_samples) + phase) / rate_hz
-        # The last sample time may exceed t[-1] by rounding only; np.interp holds the end value.
-        a_s = np.interp(t_s, t, self.a)
+        return rate_hz, range_g
 
-        if noise_g > 0.0:
-            a_s = a_s + np.random.default_rng(rng).normal(0.0, noise_g, size=a_s.size)
-
-        clipped = np.abs(a_s) >= range_g
-        a_s = np.clip(a_s, -range_g, range_g)
-        return t_s, a_s, clipped
+    @staticmethod
+    def _checked_phase(phase: float) -> float:
+        phase = number("phase", phase)
+        if not 0.0 <= phase < 1.0:
+            raise ValueError(f"phase must be in [0, 1) of a sample period, got {phase!r}")
+        return phase
 
 
 def analog_chain(

@@ -21,6 +21,7 @@ from vadsim.compare import (
 from vadsim.model.change import ModelChange
 from vadsim.model.result import Orbit
 from vadsim.model.settings import ExtraSpec, RunSettings
+from vadsim.signals.fold_features import has_quantiles
 
 SHORT = dict(cycles=160, analyse_cycles=80)
 
@@ -112,6 +113,11 @@ def test_an_orbit_table_with_its_corners_is_exact_for_a_piecewise_linear_signal(
                                   corners + 1e-9, corners + 1.0 + 1e-9])
     times = times[np.min(np.abs(np.mod(times[:, None] - 2.0, 1.0) - corners), axis=1) > 1e-10]
     np.testing.assert_allclose(orbit.at(times, 3), _sawtooth(times - 2.0), atol=1e-9)
+    # several bodies at once read each body as alone, to the bit
+    both = orbit.at_bodies(times, (3, 1))
+    assert np.array_equal(both[3], orbit.at(times, 3)) and not np.any(both[1])
+    with pytest.raises(ValueError, match="dof = 8"):
+        orbit.at_bodies(times, (3, 8))
     # Without its corners the table smears both jumps over a grid spacing.
     uniform = Orbit(t=2.0 + grid, a=column, period_s=1.0, cycles=1)
     assert np.abs(uniform.at(times, 3) - _sawtooth(times - 2.0)).max() > 1.0
@@ -140,6 +146,13 @@ def test_a_periodic_event_is_measured_from_its_orbit(small_campaign):
         assert np.abs(a[dof] - ref).max() <= 1e-2 * np.ptp(ref)
         assert a[dof].max() == pytest.approx(ref.max(), rel=1e-3)
     from_orbit = measure_event(small_campaign, ev, r, phases=2, noise_g=0.3, seed=1)
+    # without the quantiles (a recording that folded has none): the rest to the bit
+    folded_only = measure_event(small_campaign, ev, r, phases=2, noise_g=0.3, seed=1,
+                                quantiles=False)
+    dropped = set(from_orbit.sensor) - set(folded_only.sensor)
+    assert dropped and has_quantiles(dropped) and not has_quantiles(folded_only.sensor)
+    assert all(repr(folded_only.sensor[k]) == repr(from_orbit.sensor[k])
+               for k in folded_only.sensor)
     from_window = measure_event(small_campaign, ev, window, phases=2, noise_g=0.3, seed=1)
     assert from_orbit.sensor.keys() == from_window.sensor.keys()
     for key, f in from_window.sensor.items():

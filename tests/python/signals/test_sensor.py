@@ -267,6 +267,19 @@ def test_one_filtered_signal_serves_every_phase_and_the_fold_bit_for_bit() -> No
         assert np.any(want[2])  # the range clips some samples, so clipping is compared too
         for g, w in zip(got, want, strict=True):
             assert np.array_equal(g, w)
+    # every phase from one interpolation, each with its own draw, as one call per phase
+    phases = (0.0, 0.25, 0.5, 0.75)
+    rng_c, rng_d = np.random.default_rng(4), np.random.default_rng(4)
+    draws = [rng_c.normal(0.0, 0.5, size=filtered.sample_times(1024.0, p).size)
+             for p in phases]
+    together = filtered.sample_phases(1024.0, 60.0, phases, draws)
+    for phase, (a_s, clip) in zip(phases, together, strict=True):
+        _, want_s, want_clip = filtered.sample(1024.0, 60.0, phase, 0.5, rng_d)
+        assert np.array_equal(a_s, want_s) and np.array_equal(clip, want_clip)
+    with pytest.raises(ValueError, match="2 draws for 4 phases"):
+        filtered.sample_phases(1024.0, 60.0, phases, draws[:2])
+    with pytest.raises(ValueError, match="phase must be in"):
+        filtered.sample_phases(1024.0, 60.0, (1.5,), [None])
     got_a, got_m = filtered.analog(60.0)
     want_a, want_m = analog_chain(t, a, lowpass_hz=400.0, range_g=60.0)
     assert np.array_equal(got_a, want_a) and np.array_equal(got_m, want_m)
