@@ -10,6 +10,7 @@ at full resolution; :func:`recorded_features` measures a recording the same way.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -31,7 +32,7 @@ from vadsim.signals.fold_features import (
     recorded_fold_features,
 )
 from vadsim.signals.model_folds import model_fold_features
-from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, FilteredSignal
+from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, FilteredSignal, sample_count
 from vadsim.signals.window_features import event_features, phase_features
 
 __all__ = ["FAILED_RESIDUAL", "FAILED_RUN", "FOLDED", "ORBIT_OVERSAMPLING", "WARM_SETTLE_CYCLES",
@@ -360,25 +361,47 @@ def _model_folded(campaign: Campaign, t: np.ndarray, f_exc_hz: float,
                                range_g=rails, quantiles=quantiles)
 
 
-def _phase_noise(campaign: Campaign, filtered: Mapping[str, FilteredSignal], phases: int,
-                 noise: Mapping[str, float], rng: np.random.Generator
+def _phase_noise(campaign: Campaign, t: np.ndarray, phases: int,
+                 noise: Mapping[str, float], seed: int | None
                  ) -> dict[str, list[np.ndarray | None]]:
-    """Each sensor's noise at each sampling phase, drawn from ``rng`` phase by phase and
-    sensor by sensor, as the measurement always drew them (a sensor without noise draws
-    nothing)."""
-    draws: dict[str, list[np.ndarray | None]] = {name: [] for name in filtered}
-    for k in range(phases):
-        for name, signal in filtered.items():
-            sigma = number(f"noise_g[{name!r}]", noise.get(name, 0.0))
-            if not math.isfinite(sigma) or sigma < 0.0:
-                raise ValueError(f"noise_g[{name!r}] must be a finite number >= 0, got "
-                                 f"{sigma!r}")
-            if sigma > 0.0:
-                size = signal.sample_times(campaign.sensors[name].rate_hz, k / phases).size
-                draws[name].append(rng.normal(0.0, sigma, size=size))
-            else:
-                draws[name].append(None)
+    """Each sensor's noise at each sampling phase over the fine grid ``t``, drawn from
+    ``seed`` rate group by rate group, phase by phase and sensor by sensor, as the measurement
+    always drew them (a sensor without noise draws nothing).
+
+    The same seed and sample counts give the same draws: a diagnosis measures every run of an
+    event with one seed, so they are drawn once per event (read-only, shared)."""
+    plan: list[tuple[str, float, int]] = []
+    for names in sensor_groups(campaign).values():
+        for k in range(phases):
+            for name in names:
+                sigma = number(f"noise_g[{name!r}]", noise.get(name, 0.0))
+                if not math.isfinite(sigma) or sigma < 0.0:
+                    raise ValueError(f"noise_g[{name!r}] must be a finite number >= 0, got "
+                                     f"{sigma!r}")
+                size = (sample_count(t, campaign.sensors[name].rate_hz, k / phases)
+                        if sigma > 0.0 else 0)
+                plan.append((name, sigma, size))
+    if isinstance(seed, int) and not isinstance(seed, bool):
+        return _drawn_noise(seed, tuple(plan))
+    return _draw_noise(seed, plan)
+
+
+def _draw_noise(seed: int | None, plan: Iterable[tuple[str, float, int]]
+                ) -> dict[str, list[np.ndarray | None]]:
+    rng = np.random.default_rng(seed)
+    draws: dict[str, list[np.ndarray | None]] = {}
+    for name, sigma, size in plan:
+        draw = rng.normal(0.0, sigma, size=size) if sigma > 0.0 else None
+        if draw is not None:
+            draw.flags.writeable = False
+        draws.setdefault(name, []).append(draw)
     return draws
+
+
+@functools.lru_cache(maxsize=32)
+def _drawn_noise(seed: int, plan: tuple[tuple[str, float, int], ...]
+                 ) -> dict[str, list[np.ndarray | None]]:
+    return _draw_noise(seed, plan)
 
 
 def measure_event(
@@ -439,12 +462,12 @@ def measure_event(
     noise = (dict(noise_g) if isinstance(noise_g, Mapping)
              else dict.fromkeys(campaign.sensors, noise_g))
     fine = fine_rate_hz(campaign)
-    rng = np.random.default_rng(seed)
     sensor_feats: dict[str, Feature] = {}
     full_feats: dict[str, Feature] = {}
     phase_sd: dict[str, float] = {}
     kept: dict[str, np.ndarray] = {}
     t, a = fine_series(r, fine, {s.dof for s in campaign.sensors.values()})
+    draws = _phase_noise(campaign, t, phases, noise, seed)
     for rate, names in sensor_groups(campaign).items():
         full = {name: a[campaign.sensors[name].dof] for name in names}
         if measurement is not None:
@@ -456,7 +479,6 @@ def measure_event(
         # each sensor's samples at every phase, reduced together (phase_features)
         sampled: dict[str, list[np.ndarray]] = {}
         clipped: dict[str, list[np.ndarray]] = {}
-        draws = _phase_noise(campaign, filtered, phases, noise, rng)
         for name in names:
             s = campaign.sensors[name]
             got = filtered[name].sample_phases(s.rate_hz, s.range_g,

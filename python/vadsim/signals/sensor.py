@@ -31,6 +31,7 @@ __all__ = [
     "MIN_OVERSAMPLING",
     "SIMULATION_OVERSAMPLING",
     "analog_chain",
+    "sample_count",
     "sensor_chain",
 ]
 
@@ -98,6 +99,13 @@ def _lowpass(a: np.ndarray, fine_rate: float, lowpass_hz: float | None) -> np.nd
 
 
 
+def sample_count(t: np.ndarray, rate_hz: float, phase: float) -> int:
+    """The number of samples a sensor at ``rate_hz`` takes at ``phase`` (of a sample period)
+    over the fine grid ``t``: the first at ``t[0] + phase / rate_hz``, the last at or before
+    ``t[-1]`` (up to rounding)."""
+    return math.floor((t[-1] - t[0]) * rate_hz - phase + 1e-9) + 1
+
+
 class FilteredSignal:
     """A fine-grid acceleration, checked and through the sensor's anti-alias low-pass once.
 
@@ -163,9 +171,8 @@ class FilteredSignal:
         key = (rate_hz, phase)
         got = self._sample_times.get(key)
         if got is None:
-            t = self.t
-            n_samples = math.floor((t[-1] - t[0]) * rate_hz - phase + 1e-9) + 1
-            got = np.asarray(t[0] + (np.arange(n_samples) + phase) / rate_hz)
+            n_samples = sample_count(self.t, rate_hz, phase)
+            got = np.asarray(self.t[0] + (np.arange(n_samples) + phase) / rate_hz)
             got.flags.writeable = False
             self._sample_times[key] = got
         return got

@@ -58,6 +58,14 @@ def _floored(raw: float, value: float, kind: str) -> float:
     return max(raw, REL_SPREAD_FLOOR * abs(value), SPREAD_FLOORS[kind])
 
 
+def _row_sd(per_window: np.ndarray) -> np.ndarray:
+    """The across-window standard deviation (``ddof=1``) of each row, as :func:`_feature`
+    takes it of one (NaN for fewer than two windows)."""
+    if per_window.shape[1] < _MIN_WINDOWS:
+        return np.full(per_window.shape[0], math.nan)
+    return np.asarray(per_window.std(axis=1, ddof=1))
+
+
 def _feature(key: str, value: float, per_window: np.ndarray, raw: float | None = None) -> Feature:
     """Feature ``key`` with the floored across-window std of ``per_window`` (or ``raw``)."""
     n = int(per_window.size)
@@ -250,24 +258,33 @@ def _sensor_rows(
     sds = (rms.std(axis=1, ddof=1) if n_windows >= _MIN_WINDOWS
            else np.full(means.shape, math.nan))
     band_keys = [band_key(lo, hi) for lo, hi in band_list]
+    # Impact rate: value as vadsim.signals.labels.impact_frequency, spread from unquantised
+    # window rates; the per-window spreads of every row in one reduction each (a row's own
+    # reduction gives the same bits).
+    impact_hz = np.zeros(a.shape[0])
+    rates = np.zeros((a.shape[0], n_windows))
+    for row in range(a.shape[0]):
+        size = a.shape[1] if sizes is None else int(sizes[row])
+        idx = _impact_peaks(a_abs[row, :size], rate_hz, peaks[row])
+        impact_hz[row] = idx.size * rate_hz / size
+        rates[row] = _window_rates(idx, rate_hz, bounds)
+    excluded = (~usable).astype(float)
+    spreads = {"clipped_windows": _row_sd(excluded), "impact_hz": _row_sd(rates)}
+    if f_exc_hz is not None:
+        spreads["impacts_per_cycle"] = _row_sd(rates / f_exc_hz)
+    clipped_share = excluded.mean(axis=1)
     results: list[_SensorResult] = []
     for row in range(a.shape[0]):
         out: dict[str, Feature] = {}
         out.update(_peak_features(name, peaks[row][usable[row]], n_windows))
-        excluded = (~usable[row]).astype(float)
-        out["clipped_windows"] = _feature("clipped_windows", float(np.mean(excluded)),
-                                          excluded)
-        # Impact rate: value as vadsim.signals.labels.impact_frequency, spread from
-        # unquantised window rates.
-        size = a.shape[1] if sizes is None else int(sizes[row])
-        idx = _impact_peaks(a_abs[row, :size], rate_hz, peaks[row])
-        impact_hz = idx.size * rate_hz / size
-        rates = _window_rates(idx, rate_hz, bounds)
-        out["impact_hz"] = _feature("impact_hz", impact_hz, rates)
+        out["clipped_windows"] = _feature("clipped_windows", float(clipped_share[row]),
+                                          excluded[row], spreads["clipped_windows"][row])
+        out["impact_hz"] = _feature("impact_hz", float(impact_hz[row]), rates[row],
+                                    spreads["impact_hz"][row])
         if f_exc_hz is not None:
             out["impacts_per_cycle"] = _feature(
-                "impacts_per_cycle", impact_hz / f_exc_hz, rates / f_exc_hz
-            )
+                "impacts_per_cycle", float(impact_hz[row]) / f_exc_hz, rates[row],
+                spreads["impacts_per_cycle"][row])
         for j, key in enumerate(band_keys):
             value = float(means[row, j])
             out[key] = Feature(value, _floored(float(sds[row, j]), value, "g"), n_windows)

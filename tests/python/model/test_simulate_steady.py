@@ -221,3 +221,27 @@ def test_a_warm_start_on_another_attractor_is_checked_against_rest():
         sim = ev.simulate(nothing, eid)
     assert sim is not None
     assert sim.multistable and sim.start == "rest" and sim.scenario == 5
+
+
+def test_a_measurement_draws_its_noise_phase_by_phase_once_per_seed(small_campaign):
+    """The noise of each sampling phase comes from the seed's generator in the order phase
+    by phase, sensor by sensor (the order every earlier measurement drew it in), and the
+    same seed and grid give the very same (read-only) draws without drawing again."""
+    from vadsim.compare.events import _phase_noise
+    from vadsim.signals.sensor import sample_count
+
+    t = np.arange(0.0, 1.0, 1.0 / 20480.0)
+    noise = {"x1": 0.3, "x5": 0.5}
+    got = _phase_noise(small_campaign, t, 3, noise, 7)
+    rng = np.random.default_rng(7)
+    for k in range(3):
+        for name in small_campaign.sensors:
+            want = rng.normal(0.0, noise[name], size=sample_count(t, 1024.0, k / 3))
+            assert np.array_equal(got[name][k], want)
+            assert not got[name][k].flags.writeable
+    again = _phase_noise(small_campaign, t, 3, noise, 7)
+    assert all(a is b for n in got for a, b in zip(got[n], again[n], strict=True))
+    assert not np.array_equal(_phase_noise(small_campaign, t, 3, noise, 8)["x1"][0],
+                              got["x1"][0])
+    with pytest.raises(ValueError, match=r"noise_g\['x1'\] must be a finite number >= 0"):
+        _phase_noise(small_campaign, t, 3, {"x1": -1.0}, 7)
