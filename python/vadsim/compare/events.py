@@ -370,17 +370,18 @@ def _phase_noise(campaign: Campaign, t: np.ndarray, phases: int,
 
     The same seed and sample counts give the same draws: a diagnosis measures every run of an
     event with one seed, so they are drawn once per event (read-only, shared)."""
+    sigmas = {name: number(f"noise_g[{name!r}]", noise.get(name, 0.0))
+              for name in campaign.sensors}
+    for name, sigma in sigmas.items():
+        if not math.isfinite(sigma) or sigma < 0.0:
+            raise ValueError(f"noise_g[{name!r}] must be a finite number >= 0, got {sigma!r}")
     plan: list[tuple[str, float, int]] = []
     for names in sensor_groups(campaign).values():
         for k in range(phases):
             for name in names:
-                sigma = number(f"noise_g[{name!r}]", noise.get(name, 0.0))
-                if not math.isfinite(sigma) or sigma < 0.0:
-                    raise ValueError(f"noise_g[{name!r}] must be a finite number >= 0, got "
-                                     f"{sigma!r}")
                 size = (sample_count(t, campaign.sensors[name].rate_hz, k / phases)
-                        if sigma > 0.0 else 0)
-                plan.append((name, sigma, size))
+                        if sigmas[name] > 0.0 else 0)
+                plan.append((name, sigmas[name], size))
     if isinstance(seed, int) and not isinstance(seed, bool):
         return _drawn_noise(seed, tuple(plan))
     return _draw_noise(seed, plan)

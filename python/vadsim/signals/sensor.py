@@ -135,7 +135,6 @@ class FilteredSignal:
         self.t: np.ndarray = t_arr
         self.fine_rate_hz: float = 1.0 / _fine_step(t_arr)
         self.a: np.ndarray = _lowpass(a, self.fine_rate_hz, lowpass_hz)
-        self._sample_times: dict[tuple[float, float], np.ndarray] = {}
 
     def analog(self, range_g: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The filtered signal clipped at ``range_g``, and the clipped mask: what
@@ -156,7 +155,7 @@ class FilteredSignal:
         noise_g = number("noise_g", noise_g)
         if not math.isfinite(noise_g) or noise_g < 0.0:
             raise ValueError(f"noise_g must be a finite number >= 0, got {noise_g!r}")
-        t_s = self.sample_times(rate_hz, phase).copy()  # the caller's to keep
+        t_s = self.sample_times(rate_hz, phase)
         # The last sample time may exceed t[-1] by rounding only; np.interp holds the end value.
         a_s = np.interp(t_s, self.t, self.a)
         if noise_g > 0.0:
@@ -166,16 +165,9 @@ class FilteredSignal:
         return t_s, a_s, clipped
 
     def sample_times(self, rate_hz: float, phase: float) -> np.ndarray:
-        """The times (s) :meth:`sample` takes its samples at (arguments checked there; kept,
-        read-only: a measurement draws each phase's noise to their number, then samples)."""
-        key = (rate_hz, phase)
-        got = self._sample_times.get(key)
-        if got is None:
-            n_samples = sample_count(self.t, rate_hz, phase)
-            got = np.asarray(self.t[0] + (np.arange(n_samples) + phase) / rate_hz)
-            got.flags.writeable = False
-            self._sample_times[key] = got
-        return got
+        """The times (s) :meth:`sample` takes its samples at (arguments checked there)."""
+        n_samples = sample_count(self.t, rate_hz, phase)
+        return np.asarray(self.t[0] + (np.arange(n_samples) + phase) / rate_hz)
 
     def sample_phases(self, rate_hz: float, range_g: float, phases: Sequence[float],
                       noise: Sequence[np.ndarray | None]

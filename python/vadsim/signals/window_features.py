@@ -59,10 +59,10 @@ def _floored(raw: float, value: float, kind: str) -> float:
 
 
 def _row_sd(per_window: np.ndarray) -> np.ndarray:
-    """The across-window standard deviation (``ddof=1``) of each row, as :func:`_feature`
-    takes it of one (NaN for fewer than two windows)."""
+    """The across-window standard deviation (``ddof=1``, windows on axis 1) of each row
+    (and band), as :func:`_feature` takes it of one (NaN for fewer than two windows)."""
     if per_window.shape[1] < _MIN_WINDOWS:
-        return np.full(per_window.shape[0], math.nan)
+        return np.full(per_window.shape[:1] + per_window.shape[2:], math.nan)
     return np.asarray(per_window.std(axis=1, ddof=1))
 
 
@@ -98,10 +98,10 @@ def _check_clipped(name: str, clipped: npt.ArrayLike | None, size: int) -> np.nd
 def _median(x: np.ndarray) -> float:
     """``np.median`` of a few window peaks (finite), the same bits without its overhead: a
     measurement takes one per sensor and sampling phase."""
+    if x.size == 0:
+        return math.nan
     s = np.sort(x)
     m = s.size // 2
-    if s.size == 0:
-        return math.nan
     return float(s[m]) if s.size % 2 else float((s[m - 1] + s[m]) / 2.0)
 
 
@@ -255,8 +255,7 @@ def _sensor_rows(
     # Band RMS: every band's mean and spread in one reduction each (as _feature forms them).
     rms = band_rms(a, rate_hz, bounds, band_list)
     means = rms.mean(axis=1)
-    sds = (rms.std(axis=1, ddof=1) if n_windows >= _MIN_WINDOWS
-           else np.full(means.shape, math.nan))
+    sds = _row_sd(rms)
     band_keys = [band_key(lo, hi) for lo, hi in band_list]
     # Impact rate: value as vadsim.signals.labels.impact_frequency, spread from unquantised
     # window rates; the per-window spreads of every row in one reduction each (a row's own
