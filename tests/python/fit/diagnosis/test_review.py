@@ -14,6 +14,7 @@ from vadsim.fit.diagnosis import selection as dmod
 from vadsim.fit.diagnosis.hypotheses import siblings, without
 from vadsim.fit.hypothesis import Hypothesis
 from vadsim.fit.hypothesis_fit import HypothesisFit
+from vadsim.fit.nuisance import DEFAULT_NUISANCE
 from vadsim.model.change import ModelChange
 
 FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
@@ -67,6 +68,25 @@ def _forced(monkeypatch, keys=None, **opts):
                     replace(real_policy, **opts), say, tick)
 
     monkeypatch.setattr(dmod, "forward_selection", forced)
+
+
+def test_a_single_left_at_an_end_of_a_range_calls_for_the_pair_step():
+    """blind-01's first step: the hydraulic force alone at its exponent's lower end (1.0)
+    with WOB at its upper end absorbed the anvil friction; a value at an end of its own
+    range or of a nuisance constant's sends the selection to the pair step, an inside value,
+    a value at its null (no effect), a periodic constant or a pair does not."""
+    def fit(keys: tuple[str, ...], point: tuple[float, ...], nuisance=()) -> HypothesisFit:
+        return replace(_fit(keys, point), nuisance_specs=tuple(nuisance))
+
+    force = ("hydraulic_force[anvil]",)
+    assert dmod.single_at_a_bound(fit(force, (127.5, 1.0)))
+    assert dmod.single_at_a_bound(fit(force, (200.0, 2.0)))
+    assert not dmod.single_at_a_bound(fit(force, (64.0, 2.0)))
+    assert not dmod.single_at_a_bound(fit(force, (0.0, 2.0)))  # at its null: no effect
+    assert dmod.single_at_a_bound(fit(force, (64.0, 2.0, 1.15, 2.5), DEFAULT_NUISANCE))
+    assert dmod.single_at_a_bound(fit(force, (64.0, 2.0, 0.85, 2.5), DEFAULT_NUISANCE))
+    assert not dmod.single_at_a_bound(fit(force, (64.0, 2.0, 1.02, 0.0), DEFAULT_NUISANCE))
+    assert not dmod.single_at_a_bound(fit(force + ("anvil_friction",), (127.5, 1.0, 90.0)))
 
 
 @pytest.mark.slow
