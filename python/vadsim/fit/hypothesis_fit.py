@@ -237,7 +237,7 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
         estimates = fold_estimates(
             hyp, best, points, [events_cost(event_rss, eids, train) for _n, train in lofo],
             [h.fold_points[name] for name, _t in lofo])
-        intervals = widest(profile_interval(hyp, points, point_rss, n),
+        intervals = widest(profile_interval(hyp, points, point_rss, len(eids)),
                            jackknife_interval(hyp, best, estimates))
     if not h.sq_lofo + h.sq_block:
         raise ValueError(f"{hyp.key}: no fold has both training and held-out events among "

@@ -3,6 +3,8 @@ fit (`vadsim.fit.scoring.predictive_cost`), and its use in the folds' scores."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from vadsim.compare import EventEval
@@ -135,7 +137,6 @@ def test_a_fit_on_events_that_leave_no_flow_block_scores_its_flow_folds_alone():
     highest flows, the flow block keeps no training event and is dropped. The fit then scores
     on the leave-one-flow-out folds alone (its block RMS is NaN); with no fold at all it says
     so by name."""
-    import math
 
     from vadsim.fit.hypothesis_fit import fit_hypothesis
     from vadsim.fit.stages import Stage
@@ -157,9 +158,9 @@ class _CorrelatedEvaluator:
     times: ``(force - target_e) / 20`` -- features of one record that share its error, as a
     folded waveform's phase bins do."""
 
-    def __init__(self, targets: dict[str, float], copies: int) -> None:
-        self.targets, self.copies = targets, copies
-        self.keys = {e: [f"k{i}" for i in range(copies)] for e in targets}
+    def __init__(self, targets: dict[str, float], copies: int, misfit: float = 0.0) -> None:
+        self.targets, self.copies, self.misfit = targets, copies, misfit
+        self.keys = {e: [f"k{i}" for i in range(copies + (misfit != 0.0))] for e in targets}
         self.n_evals = 0
 
     def evaluate(self, items, eids):
@@ -168,6 +169,8 @@ class _CorrelatedEvaluator:
             force = 0.0 if key == "base" else key[1][0]
             for e in eids:
                 z = np.full(self.copies, (force - self.targets[e]) / 20.0)
+                if self.misfit:  # one more feature that no force fits
+                    z = np.append(z, self.misfit)
                 out[(key, e)] = EventEval(None, z, z)
                 self.n_evals += 1
         return out
@@ -204,7 +207,6 @@ def test_the_jackknife_interval_of_a_mean_is_the_t_interval():
 def test_a_periodic_constant_jackknifes_across_the_period_edge():
     """theta0 near 0 with fold estimates on both sides of the edge (0.02 and pi - 0.02 rad):
     the spread is 0.02 rad, not half the period, and the interval is given unwrapped."""
-    import math
 
     from vadsim.fit.intervals import jackknife_interval
     from vadsim.fit.nuisance import THETA0
@@ -221,10 +223,12 @@ def test_a_periodic_constant_jackknifes_across_the_period_edge():
 @pytest.mark.parametrize("copies", [1, 100])
 def test_a_fit_interval_does_not_shrink_when_each_event_repeats_its_residual(copies):
     """A parameter's interval must reflect what the events say, not how many correlated
-    features each carries: with every event's residual repeated 100 times the profile's
-    chi-square threshold shrinks the interval 10-fold, but the leave-one-flow-out jackknife
-    does not. The fit's interval is the t-interval of the events' targets (the analytic
-    answer for this least-squares mean) in both cases: the jackknife gives it."""
+    features each carries: with every event's residual repeated 100 times neither the
+    leave-one-flow-out jackknife nor the profile (its threshold per record) narrows. The
+    fit's interval is the t-interval of the events' targets (the analytic answer for this
+    least-squares mean) in both cases: the jackknife gives it, and the profile is the
+    normal-theory interval ``mean +- 1.96 s / sqrt(m)`` inside it. Per feature (its old
+    threshold, ``n`` the features) the profile narrowed 10-fold with 100 copies."""
     from vadsim.fit.hypothesis_fit import fit_hypothesis
     from vadsim.fit.intervals import profile_interval
     from vadsim.fit.stages import Stage
@@ -241,12 +245,62 @@ def test_a_fit_interval_does_not_shrink_when_each_event_repeats_its_residual(cop
     lo, hi = fit.intervals[0]
     t_lo, t_hi = _t_interval(list(_TARGETS.values()))
     assert (lo, hi) == pytest.approx((t_lo, t_hi), abs=0.05)
-    # and the profile alone would not: with 100 copies it is far narrower than the t-interval
     pts = sorted(fit.point_rss)
-    (p_lo, p_hi), = profile_interval(hyp, pts, np.array([fit.point_rss[p] for p in pts]),
-                                     fit.n)
+    rss = np.array([fit.point_rss[p] for p in pts])
+    values = np.array(list(_TARGETS.values()))
+    half = 1.96 * values.std(ddof=1) / math.sqrt(values.size)
+    (p_lo, p_hi), = profile_interval(hyp, pts, rss, len(eids))
+    # the profile lies between evaluated points, 0.25 N/kg apart
+    assert (p_lo, p_hi) == pytest.approx((values.mean() - half, values.mean() + half), abs=0.26)
+    assert t_lo <= p_lo and p_hi <= t_hi
+    (f_lo, f_hi), = profile_interval(hyp, pts, rss, fit.n)  # per feature
     if copies == 100:
-        assert p_hi - p_lo < 0.5 * (t_hi - t_lo)
+        assert f_hi - f_lo < 0.2 * (p_hi - p_lo)
+
+
+def test_a_misfit_every_event_shares_widens_the_interval_beyond_the_jackknife():
+    """A feature of every event that no force fits (0.5 spreads each) leaves the estimate and
+    its jackknife where they were, but the model is worse than its events' scatter says:
+    the interval is the profile's with the record as its unit, ``RSS_min`` 0.41 + 8 x 0.25,
+    ``s^2`` = that / 7, ``|force - mean| <= sqrt(3.84 s^2 x 400 / 8)`` = 8.1 N/kg, twice the
+    t-interval's 4.05."""
+    from vadsim.fit.hypothesis_fit import fit_hypothesis
+    from vadsim.fit.stages import Stage
+
+    eids = list(_TARGETS)
+    lofo = [(f"flow {i}", [x for x in eids if x != e], [e]) for i, e in enumerate(eids)]
+    hyp = Hypothesis(("anvil_friction",))
+    values = np.array(list(_TARGETS.values()))
+    dense = [(float(f),) for f in np.arange(85.0, 115.0, 0.25)]
+    fit = fit_hypothesis(_CorrelatedEvaluator(_TARGETS, 1, misfit=0.5), hyp, hyp.null_point(),
+                         [Stage(grid=(0,), refine=(0,), maxfev=40)], lofo, eids,
+                         alternatives=dense)
+    assert fit.point[0] == pytest.approx(values.mean(), abs=0.05)
+    rss_min = float(np.sum((values - values.mean()) ** 2) / 400 + 8 * 0.25)
+    half = math.sqrt(3.84 * rss_min / 7 * 400 / 8)
+    lo, hi = fit.intervals[0]
+    assert (lo, hi) == pytest.approx((values.mean() - half, values.mean() + half), abs=0.26)
+    t_lo, t_hi = _t_interval(values)
+    assert hi - lo > 1.8 * (t_hi - t_lo)
+
+
+def test_a_profile_reaches_as_far_on_the_side_its_search_left_unexplored():
+    """A refinement walked up one side of the optimum (100 N/kg; cost 10 + (x - 100)^2 at
+    100-104 every 0.5) and evaluated one point just below it with the other coordinates off
+    (cost 100). The threshold, 10 + 3.84 x 10 / 7 per record, keeps 100-102 inside; above,
+    the interval ends at the next evaluated value, 102.5; below it reaches as far as the
+    other side's inside, 98, not the lone point at 99.5."""
+    from vadsim.fit.intervals import profile_interval
+
+    hyp = Hypothesis(("anvil_friction",))
+    xs = [*np.arange(100.0, 104.01, 0.5), 99.5]
+    rss = np.array([10.0 + (x - 100.0) ** 2 if x >= 100.0 else 100.0 for x in xs])
+    (lo, hi), = profile_interval(hyp, [(float(x),) for x in xs], rss, 8)
+    assert (lo, hi) == pytest.approx((98.0, 102.5))
+    # a periodic constant keeps the evaluated ends: theta0's 0 and pi are one point
+    hyp = Hypothesis((), DEFAULT_NUISANCE[1:])
+    (lo, hi), = profile_interval(hyp, [(float(x) / 100,) for x in xs], rss, 8)
+    assert (lo, hi) == pytest.approx((0.995, 1.025))
 
 
 class _TwoParameterEvaluator:
