@@ -137,7 +137,6 @@ def test_a_fit_on_events_that_leave_no_flow_block_scores_its_flow_folds_alone():
     highest flows, the flow block keeps no training event and is dropped. The fit then scores
     on the leave-one-flow-out folds alone (its block RMS is NaN); with no fold at all it says
     so by name."""
-
     from vadsim.fit.hypothesis_fit import fit_hypothesis
     from vadsim.fit.stages import Stage
 
@@ -207,7 +206,6 @@ def test_the_jackknife_interval_of_a_mean_is_the_t_interval():
 def test_a_periodic_constant_jackknifes_across_the_period_edge():
     """theta0 near 0 with fold estimates on both sides of the edge (0.02 and pi - 0.02 rad):
     the spread is 0.02 rad, not half the period, and the interval is given unwrapped."""
-
     from vadsim.fit.intervals import jackknife_interval
     from vadsim.fit.nuisance import THETA0
 

@@ -18,8 +18,9 @@ import numpy as np
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.hypothesis_fit import HypothesisFit
 
-__all__ = ["VERDICTS", "Policy", "any_vanishes", "at_null", "needed", "none_model", "passes",
-           "unexplained", "vanishes", "vanishes_in_folds", "verdict", "within_noise"]
+__all__ = ["VERDICTS", "Policy", "any_vanishes", "at_null", "needed", "none_model",
+           "pair_passes", "passes", "unexplained", "vanishes", "vanishes_in_folds", "verdict",
+           "within_noise"]
 
 VERDICTS = ("none", "explained", "unexplained")
 """What a diagnosis can conclude (:func:`verdict`)."""
@@ -129,6 +130,13 @@ def passes(fit: HypothesisFit, bar: HypothesisFit, extended: HypothesisFit,
     return (not vanishes(fit) and fit.score <= bar.score - policy.min_delta
             and fit.heldout_rms <= (1.0 - cut) * bar.heldout_rms
             and fit.rss <= (1.0 - cut) ** 2 * extended.rss)
+
+
+def pair_passes(pair: HypothesisFit, bar: HypothesisFit, extended: HypothesisFit,
+                policy: Policy) -> bool:
+    """Whether a pair is chosen: it :func:`passes` against ``bar`` and neither of its
+    candidates vanishes (:func:`any_vanishes`: a pair with one gone is a single effect)."""
+    return passes(pair, bar, extended, policy) and not any_vanishes(pair)
 
 
 def needed(current: HypothesisFit, without: HypothesisFit, policy: Policy) -> bool:

@@ -29,8 +29,8 @@ from vadsim.fit.diagnosis.hypotheses import (
 from vadsim.fit.diagnosis.parallel import Tick, fit_all
 from vadsim.fit.diagnosis.policy import (
     Policy,
-    any_vanishes,
     needed,
+    pair_passes,
     passes,
     vanishes,
     vanishes_in_folds,
@@ -188,7 +188,7 @@ def passing_pairs(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvalua
             continue
         fitted |= {frozenset(f.keys) for f in pairs}
         steps.append(pairs)
-        if passes(pairs[0], bar, current, policy) and not any_vanishes(pairs[0]):
+        if pair_passes(pairs[0], bar, current, policy):
             return pairs
         say(f"the best pair, {pairs[0].key}, does not pass against "
             + ("'none'" if not current.keys else current.key))
@@ -205,7 +205,7 @@ def replaced_by_a_pair(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignE
     if not pairs:
         return single
     steps.append(pairs)
-    if not passes(pairs[0], single, single, policy) or any_vanishes(pairs[0]):
+    if not pair_passes(pairs[0], single, single, policy):
         return single
     say(f"the pair {pairs[0].key} replaces {single.key}, which sat at a bound")
     return densify(ctx, ev, coarse_ev, pairs[0], say)
@@ -235,8 +235,7 @@ def within_noise_pair(pair: HypothesisFit, bar: HypothesisFit, current: Hypothes
     the 10-event pair benchmark's 910 s) for the case where a single effect's basin lies
     between its probe's points; a pair that already leaves nothing beyond the noise does
     not need it, and a pair that does not keeps the rule."""
-    return (passes(pair, bar, current, policy) and not any_vanishes(pair)
-            and pair.heldout_rms <= policy.noise_rms)
+    return pair_passes(pair, bar, current, policy) and pair.heldout_rms <= policy.noise_rms
 
 
 def every_single_fitted(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
