@@ -36,6 +36,7 @@ from vadsim.fit.stages import Stage
 __all__ = ["PAIR_FULL", "PAIR_MIN_CUT", "PAIR_SCREEN_EVENTS", "PAIR_SCREEN_FULL",
            "PAIR_SCREEN_MIN_GAIN", "PAIR_SCREEN_REPORT", "PAIR_SCREEN_SHAPE_PER_AXIS",
            "PAIR_TOP", "PROBE_MIN_GAIN", "SOLO_FULL", "anchor_key", "current_cost",
+           "fitted_prospects",
            "pair_probes", "pair_prospects", "pair_step", "record_pair_probes", "same_point",
            "screen_all_pairs", "screen_pairs", "screened"]
 
@@ -158,7 +159,8 @@ def pair_probes(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluato
     pair of :func:`pair_prospects`, at the nuisance values where they showed most, on the
     coarse engine) and the best single probe's cost they are measured against; no probes
     (and inf) where no pair is a prospect."""
-    prospects = pair_prospects(probes, PAIR_TOP)
+    prospects = (pair_prospects(probes, PAIR_TOP) if any(f.probe for f in probes)
+                 else fitted_prospects(probes, PAIR_TOP))
     if not prospects:
         return [], math.inf
     say(f"pairs: joint probes of {len(prospects)} pair(s) of "
@@ -350,6 +352,27 @@ def pair_prospects(probes: Sequence[HypothesisFit], top: int
             nuis = gains[a][1] if gains[a][0] >= gains[b][0] else gains[b][1]
             out.append((a, b, nuis))
     return out
+
+
+def fitted_prospects(fits: Sequence[HypothesisFit], top: int
+                     ) -> list[tuple[str, str, Point]]:
+    """The pairs among the ``top`` best-scored single candidates (one variant per id) of a
+    first step that fitted every candidate fully, each at the nuisance values of its
+    better-scored candidate's fit.
+
+    Why: a pool no larger than the screen is fitted in full, not probed, and
+    :func:`pair_prospects` reads probes' grids (the base model's cost at each candidate's
+    null, at the same nuisance values), which full fits do not hold. Measured on the 6-event
+    two-effect test campaign (a hydraulic force and anvil friction, 4 candidates): the force
+    alone ended at both ends of its ranges and the pair step found no prospect."""
+    ranked = sorted((f for f in fits if len(f.keys) == 1), key=lambda f: f.score)
+    chosen: list[HypothesisFit] = []
+    for f in ranked:
+        if CANDIDATES[f.keys[0]].id not in {CANDIDATES[g.keys[0]].id for g in chosen}:
+            chosen.append(f)
+    chosen = chosen[:top]
+    return [(a.keys[0], b.keys[0], tuple(a.point[a.hypothesis.n_physics:]))
+            for i, a in enumerate(chosen) for b in chosen[i + 1:]]
 
 
 def _one_variant_per_id(gains: Mapping[str, tuple[float, Any]],

@@ -91,9 +91,10 @@ def forward_selection(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
     early_joint: tuple[list[HypothesisFit], float] | None = None  # and its joint probes
 
     def prospect_pairs() -> list[HypothesisFit]:  # the pair step, once
+        # a pool too small to screen was fitted fully, not probed: those fits are its probes
         return (early if early is not None else
-                search.pair_step(ctx, ev, coarse_ev, base, probes, policy, say, tried, tick,
-                                 joint=early_joint))
+                search.pair_step(ctx, ev, coarse_ev, base, probes or steps[0], policy, say,
+                                 tried, tick, joint=early_joint))
 
     while len(current.keys) < policy.max_effects:
         bar = none if not current.keys else current

@@ -687,8 +687,10 @@ def test_null_campaign_with_wob_10_percent_off_gives_none():
 
 @pytest.mark.slow
 def test_two_effects_at_once_are_both_named():
-    """Forward selection adds the friction on top of the hydraulic force. Without the
-    review (test_review.py tests it), which took 33 of its 181 s."""
+    """Both are named, with the friction's size: the hydraulic force alone ends at ends of
+    both its ranges (f_ref 200, n 1), absorbing the friction, and the pair step its first
+    step's full fits give prospects to names the pair (or forward selection adds the
+    friction on top). Without the review (test_review.py tests it)."""
     camp = synthetic_campaign("7in-cde", FLOWS, change=_truth(HYDRAULIC, FRICTION), seed=15,
                               **SMALL)
     d = _diagnose(camp, candidates=TRIED, review=False)

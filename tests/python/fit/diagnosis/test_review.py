@@ -9,7 +9,7 @@ from dataclasses import replace
 import pytest
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.fit.candidates import CANDIDATES
-from vadsim.fit.diagnosis import diagnose
+from vadsim.fit.diagnosis import diagnose, search
 from vadsim.fit.diagnosis import selection as dmod
 from vadsim.fit.diagnosis.hypotheses import siblings, without
 from vadsim.fit.hypothesis import Hypothesis
@@ -87,6 +87,25 @@ def test_a_single_left_at_an_end_of_a_range_calls_for_the_pair_step():
     assert dmod.single_at_a_bound(fit(force, (64.0, 2.0, 0.85, 2.5), DEFAULT_NUISANCE))
     assert not dmod.single_at_a_bound(fit(force, (64.0, 2.0, 1.02, 0.0), DEFAULT_NUISANCE))
     assert not dmod.single_at_a_bound(fit(force + ("anvil_friction",), (127.5, 1.0, 90.0)))
+
+
+def test_a_first_step_fitted_in_full_gives_the_pair_step_its_prospects():
+    """A pool too small to screen is fitted, not probed: its pairs are the best-scored
+    singles' (one variant of each physics), at the nuisance values of the better one of each
+    pair -- where the probes' reading gives none (6-event two-effect test campaign)."""
+    def fit(key: str, point: tuple[float, ...], score: float) -> HypothesisFit:
+        return replace(_fit((key,), point), nuisance_specs=DEFAULT_NUISANCE, score=score)
+
+    fits = [fit("anvil_friction", (215.6, 1.004, 2.26), 526.1),
+            fit("hydraulic_force[anvil]", (200.0, 1.0, 1.084, 2.32), 7.9),
+            fit("contact_law", (8.66, 0.70, 1.15, 1.30), 1019.5),
+            fit("hydraulic_force[bit]", (0.0, 2.0, 1.15, 1.30), 975.2)]
+    assert search.pair_prospects(fits, search.PAIR_TOP) == []
+    assert search.fitted_prospects(fits, search.PAIR_TOP) == [
+        ("hydraulic_force[anvil]", "anvil_friction", (1.084, 2.32)),
+        ("hydraulic_force[anvil]", "contact_law", (1.084, 2.32)),
+        ("anvil_friction", "contact_law", (1.004, 2.26))]
+    assert len(search.fitted_prospects(fits, 2)) == 1
 
 
 @pytest.mark.slow
