@@ -81,6 +81,7 @@ __all__ = [
     "COARSE_BINS",
     "MIN_COVERAGE",
     "SPIKE_SHIFTS",
+    "WIDE_SPIKE_BINS",
     "FoldShape",
     "aligned_spike_bin",
     "sensor_values",
@@ -98,6 +99,13 @@ MIN_COVERAGE: float = 0.5
 SPIKE_SHIFTS: int = 8
 """Sub-bin shifts of the fine bins a spike's height and width are averaged over, 1/8 of a
 bin apart (module docstring, "Spike height and width over sub-bin shifts")."""
+
+WIDE_SPIKE_BINS: float = 8.0
+"""A spike wider than this many fine bins at half height is read at the alignment alone:
+shifts of a fraction of a bin move its values by less than the last digit a feature shows
+(x5's, 13-22 bins wide on the 7in tool, 0.03 % in height), and reading them would double
+the time the shifts take (x1's and x5's spikes, at every shift, of every run a diagnosis
+measures)."""
 
 
 @dataclass(frozen=True)
@@ -350,7 +358,8 @@ def spike_over_shifts(count: np.ndarray, sums: np.ndarray, period: int, f_hz: fl
                       coarse: int = COARSE_BINS, aligned_row: int | None = None
                       ) -> np.ndarray:
     """Spike height (g) and width (ms) of each row of an aligned fold :data:`SPIKE_SHIFTS`
-    times finer than the fine bins, averaged over the shifts (module docstring).
+    times finer than the fine bins, averaged over the shifts (module docstring); a spike
+    wider than :data:`WIDE_SPIKE_BINS` at the alignment is read there alone.
 
     Parameters
     ----------
@@ -376,18 +385,21 @@ def spike_over_shifts(count: np.ndarray, sums: np.ndarray, period: int, f_hz: fl
     shifts = SPIKE_SHIFTS
     rows = sums.shape[0]
     ms_per_bin = 1e3 * period / (count.size // shifts * f_hz)
+    order = sorted(range(-shifts // 2, shifts // 2), key=abs)  # the alignment itself first
     got = np.full((shifts, rows, 2), math.nan)
-    for i, shift in enumerate(range(-shifts // 2, shifts // 2)):
+    wide = np.zeros(rows, dtype=bool)
+    for i, shift in enumerate(order):
         c = np.roll(count, -shift).reshape(-1, shifts).sum(axis=1)
         s = np.roll(sums, -shift, axis=1).reshape(rows, -1, shifts).sum(axis=2)
         with np.errstate(invalid="ignore", divide="ignore"):
             means = s / c
-        for r in range(rows):
+        for r in np.flatnonzero(~wide):
             at = aligned_spike_bin(means[r], period, coarse) if r == aligned_row else None
             if r == aligned_row and at is None:
                 continue
             _, height, right, left = _spike_shape(means[r], at)
             got[i, r] = height, (right + left) * ms_per_bin
+            wide[r] = i == 0 and right + left > WIDE_SPIKE_BINS
     with np.errstate(invalid="ignore"):
         counted = np.isfinite(got).sum(axis=0)
         total = np.where(np.isfinite(got), got, 0.0).sum(axis=0)
