@@ -90,14 +90,7 @@ import numpy.typing as npt
 
 from vadsim._checks import finite_1d, finite_positive
 from vadsim.signals.features import REL_SPREAD_FLOOR, SPREAD_FLOORS, Feature
-from vadsim.signals.fold_waveform import (
-    COARSE_BINS,
-    MIN_COVERAGE,
-    SPIKE_SHIFTS,
-    sensor_values,
-    spike_origin,
-    spike_over_shifts,
-)
+from vadsim.signals.fold_waveform import COARSE_BINS, MIN_COVERAGE, sensor_values, spike_origin
 from vadsim.signals.folding import (
     BLOCK_S,
     FOLD_BINS,
@@ -185,44 +178,14 @@ def _leave_one_out(fo: Fold) -> np.ndarray:
 _SPIKE_KEYS = ("peak_g", "width_ms", "lag")
 
 
-def _sums(fo: Fold) -> tuple[np.ndarray, np.ndarray]:
-    """A fold's sample sums per bin, and each block's, shape (bins,) and (blocks, bins)."""
-    return (np.where(fo.count > 0, fo.mean, 0.0) * fo.count,
-            np.where(fo.block_count > 0, fo.block_mean, 0.0) * fo.block_count)
-
-
-def _spikes(folds: Mapping[str, Fold], fine: Mapping[str, Fold], vals: dict[str, dict[str, float]],
-            pseudo: list[dict[str, dict[str, float]]]) -> None:
-    """Replace the spike heights and widths of ``vals`` (the whole record) and ``pseudo``
-    (without each block) by their averages over sub-bin shifts, read on ``fine``, the same
-    folds :data:`~vadsim.signals.fold_waveform.SPIKE_SHIFTS` times finer
-    (:func:`~vadsim.signals.fold_waveform.spike_over_shifts`)."""
-    names = list(folds)
-    ref = fine[names[0]]
-    parts = [_sums(fine[k]) for k in names]
-    total = np.stack([p[0] for p in parts])
-    block = np.stack([p[1] for p in parts], axis=1)  # (blocks, sensors, bins)
-    sets = [(vals, ref.count, total)] + [
-        (pseudo[b], ref.count - ref.block_count[b], total - block[b])
-        for b in range(len(pseudo))]
-    for target, count, sums in sets:
-        got = spike_over_shifts(count, sums, ref.period, ref.f_hz)
-        for name, (height, width) in zip(names, got, strict=True):
-            target[name].update(peak_g=height, width_ms=width)
-
-
-def _recorded_set(folds: Mapping[str, Fold], ref: str, coarse: int,
-                  fine: Mapping[str, Fold] | None = None) -> dict[str, Feature]:
+def _recorded_set(folds: Mapping[str, Fold], ref: str, coarse: int) -> dict[str, Feature]:
     """Recorded folded features: values from the whole record, spreads from the record
-    without each block in turn (module docstring); the spikes' from ``fine`` where given
-    (:func:`_spikes`)."""
+    without each block in turn (module docstring)."""
     vals = sensor_values(folds, ref, {k: fo.mean for k, fo in folds.items()}, coarse)
     loo = {k: _leave_one_out(fo) for k, fo in folds.items()}
     n_blocks = folds[ref].block_mean.shape[0]
     pseudo = [sensor_values(folds, ref, {k: m[b] for k, m in loo.items()}, coarse)
               for b in range(n_blocks)]
-    if fine is not None:
-        _spikes(folds, fine, vals, pseudo)
     fo_ref = folds[ref]
     tag, fine_ms = fold_tag(fo_ref.period), 1e3 / (fo_ref.bins * fo_ref.f_hz)
     out: dict[str, Feature] = {}
@@ -358,10 +321,10 @@ def recorded_fold_features(
     if not probe.periodic or probe.filled < MIN_COVERAGE:
         return distribution_features(arrays, rate_hz, block_s=block_s)
     origin = spike_origin(probe, coarse)
-    folds, fine = ({name: fold(a, rate_hz, probe.f_hz, t0=t0, period=probe.period, bins=b,
-                               refine=0.0, block_s=block_s, origin=origin)
-                    for name, a in arrays.items()} for b in (bins, bins * SPIKE_SHIFTS))
-    return _recorded_set(folds, ref, coarse, fine)
+    folds = {name: fold(a, rate_hz, probe.f_hz, t0=t0, period=probe.period, bins=bins,
+                        refine=0.0, block_s=block_s, origin=origin)
+             for name, a in arrays.items()}
+    return _recorded_set(folds, ref, coarse)
 
 
 def noise_floor_g(signals: Mapping[str, npt.ArrayLike], rate_hz: float, f_hz: float, *,

@@ -37,25 +37,10 @@ Features of a periodic record (period ``n``; tag ``fold`` for n = 1, ``fold<n>``
     filled (sampling nearly commensurate with the excitation) is left out.
 ``<sensor>_fold_peak_g``
     The spike height: the largest ``|mean|`` over the fine bins, g (a bin average, like the
-    model's), averaged over :data:`SPIKE_SHIFTS` shifts of the bins (below).
+    model's).
 ``<sensor>_fold_width_ms``
     The spike's full width at half its height in ``|mean|``, ms, with linear interpolation
-    between the fine bins at the half-height crossings, averaged over the same shifts.
-
-Spike height and width over sub-bin shifts
-------------------------------------------
-An impact's acceleration rises within a fraction of a fine bin (the contact's dashpot force
-jumps at contact), so the largest bin mean depends on where in its bin that onset falls: on
-the 7in tool at 250 gal/min, moving the bins by 1/8 of a bin moved the simulated x1 peak from
-79.1 to 70.2 g. A recording's alignment is known to about that (its spike position is read
-from a fold of ~34 samples a bin drawn from a lattice of sampling phases), so the recorded
-peak of one model scattered 68.8-81.8 g over 12 sampling phases (sd 3.9 g, noise-free) while
-the model's said 79.1 g: one event of a blind campaign's truth left at a standardised residual
-of 5. Both sides therefore read the spike from a fold :data:`SPIKE_SHIFTS` times finer,
-regrouped into fine bins starting at each of its sub-bins in turn (shifts of -1/2 to +3/8 of a
-bin about the alignment), and average the heights and the widths: the same model's recorded
-average then scattered 1.8 g about 71.5 g against the model's 72.2 g
-(:func:`spike_over_shifts`).
+    between the fine bins at the half-height crossings.
 ``<sensor>_fold_rms_g``
     RMS of the folded mean about its own mean, g (offsets are not vibration).
 ``<sensor>_fold_lag`` (every sensor but the reference)
@@ -80,8 +65,6 @@ from vadsim.signals.folding import Fold
 __all__ = [
     "COARSE_BINS",
     "MIN_COVERAGE",
-    "SPIKE_SHIFTS",
-    "WIDE_SPIKE_BINS",
     "FoldShape",
     "aligned_spike_bin",
     "sensor_values",
@@ -95,17 +78,6 @@ COARSE_BINS: int = 24
 
 MIN_COVERAGE: float = 0.5
 """Least fraction of filled fine bins for a recorded coarse bin, or for the spike features."""
-
-SPIKE_SHIFTS: int = 8
-"""Sub-bin shifts of the fine bins a spike's height and width are averaged over, 1/8 of a
-bin apart (module docstring, "Spike height and width over sub-bin shifts")."""
-
-WIDE_SPIKE_BINS: float = 8.0
-"""A spike wider than this many fine bins at half height is read at the alignment alone:
-shifts of a fraction of a bin move its values by less than the last digit a feature shows
-(x5's, 13-22 bins wide on the 7in tool, 0.03 % in height), and reading them would double
-the time the shifts take (x1's and x5's spikes, at every shift, of every run a diagnosis
-measures)."""
 
 
 @dataclass(frozen=True)
@@ -170,8 +142,7 @@ def _top(m: np.ndarray, j: int, width: float) -> float:
     ok = np.isfinite(values)
     if np.count_nonzero(ok) < 5:
         return float(m[j])
-    powers = np.vander(offsets[ok].astype(float), 3)  # the normal equations: polyfit's cost
-    c2, c1, c0 = np.linalg.solve(powers.T @ powers, powers.T @ values[ok])  # is its wrapping
+    c2, c1, c0 = np.polyfit(offsets[ok].astype(float), values[ok], 2)
     if not c2 < 0.0:
         return float(m[j])
     x = float(np.clip(-c1 / (2.0 * c2), -h, h))
@@ -184,38 +155,18 @@ def _spike_shape(mean: np.ndarray, at: int | None = None) -> tuple[int, float, f
     crossings of half that height on the right and the left (NaN where none within half the
     fold); bin -1 and NaN if no bin is filled."""
     m = np.abs(mean)
-    filled = np.isfinite(m)
-    if not filled.any():
+    if not np.any(np.isfinite(m)):
         return -1, math.nan, math.nan, math.nan
-    # nanargmax's first largest, without its copies (|mean| >= 0 > the empty bins' -1)
-    j, reach = int(np.argmax(np.where(filled, m, -1.0))) if at is None else at, m.size // 2
+    j, reach = int(np.nanargmax(m)) if at is None else at, m.size // 2
     if not m[j] > 0.0:
         return j, float(m[j]), math.nan, math.nan
-    width = (_crossing_from(m, j, 1, m[j], m[j] / 2.0, reach)
-             + _crossing_from(m, j, -1, m[j], m[j] / 2.0, reach))
+    right = np.take(m, np.arange(j + 1, j + 1 + reach), mode="wrap")
+    left = np.take(m, np.arange(j - 1, j - 1 - reach, -1), mode="wrap")
+    width = _crossing(right, m[j], m[j] / 2.0) + _crossing(left, m[j], m[j] / 2.0)
     height = _top(m, j, width)
     start = min(float(m[j]), height)  # a parabola's vertex may stand above the largest bin
-    return (j, height, _crossing_from(m, j, 1, start, height / 2.0, reach),
-            _crossing_from(m, j, -1, start, height / 2.0, reach))
-
-
-def _crossing_from(m: np.ndarray, j: int, step: int, peak: float, half: float,
-                   reach: int) -> float:
-    """:func:`_crossing` of the bins walking from bin ``j`` of ``m`` in direction ``step`` (+1
-    right, -1 left) over at most ``reach`` bins, wrapping, walked one bin at a time: a spike's
-    half-height crossing lies within a few bins, and its shape is read 16 times an event
-    (every sensor at every sub-bin shift), so building the whole walk first costs more than
-    the walk."""
-    size = m.size
-    x0, y0 = 0.0, float(peak)
-    for k in range(1, reach + 1):
-        y = float(m[(j + step * k) % size])
-        if y != y:  # NaN: an empty bin is stepped over
-            continue
-        if y < half:
-            return x0 + (y0 - half) / (y0 - y) * (k - x0)
-        x0, y0 = float(k), y
-    return math.nan
+    return (j, height, _crossing(right, start, height / 2.0),
+            _crossing(left, start, height / 2.0))
 
 
 def spike_position(mean: np.ndarray, at: int | None = None) -> float:
@@ -352,58 +303,6 @@ def aligned_spike_bin(mean: npt.ArrayLike, period: int, coarse: int = COARSE_BIN
     if not np.any(np.isfinite(near)):
         return None
     return int((j0 - 2 + int(np.nanargmax(near))) % m.size)
-
-
-def spike_over_shifts(count: np.ndarray, sums: np.ndarray, period: int, f_hz: float,
-                      coarse: int = COARSE_BINS, aligned_row: int | None = None
-                      ) -> np.ndarray:
-    """Spike height (g) and width (ms) of each row of an aligned fold :data:`SPIKE_SHIFTS`
-    times finer than the fine bins, averaged over the shifts (module docstring); a spike
-    wider than :data:`WIDE_SPIKE_BINS` at the alignment is read there alone.
-
-    Parameters
-    ----------
-    count : numpy.ndarray, shape (bins * period * SPIKE_SHIFTS,)
-        Samples in each sub-bin, its fine bin ``j`` being sub-bins ``j * SPIKE_SHIFTS`` on.
-    sums : numpy.ndarray, shape (rows, bins * period * SPIKE_SHIFTS)
-        Each row's (sensor's) sum of samples in each sub-bin, g.
-    period : int
-        Excitation cycles of the fold.
-    f_hz : float
-        Excitation frequency, Hz.
-    coarse : int, optional
-        Coarse bins per cycle (where the alignment put the spike).
-    aligned_row : int or None, optional
-        The row whose spike is the one alignment put in place (:func:`aligned_spike_bin`)
-        rather than its largest: the reference under an alternative alignment.
-
-    Returns
-    -------
-    numpy.ndarray, shape (rows, 2)
-        Height and width per row; NaN where no shift gives one.
-    """
-    shifts = SPIKE_SHIFTS
-    rows = sums.shape[0]
-    ms_per_bin = 1e3 * period / (count.size // shifts * f_hz)
-    order = sorted(range(-shifts // 2, shifts // 2), key=abs)  # the alignment itself first
-    got = np.full((shifts, rows, 2), math.nan)
-    wide = np.zeros(rows, dtype=bool)
-    for i, shift in enumerate(order):
-        c = np.roll(count, -shift).reshape(-1, shifts).sum(axis=1)
-        s = np.roll(sums, -shift, axis=1).reshape(rows, -1, shifts).sum(axis=2)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            means = s / c
-        for r in np.flatnonzero(~wide):
-            at = aligned_spike_bin(means[r], period, coarse) if r == aligned_row else None
-            if r == aligned_row and at is None:
-                continue
-            _, height, right, left = _spike_shape(means[r], at)
-            got[i, r] = height, (right + left) * ms_per_bin
-            wide[r] = i == 0 and right + left > WIDE_SPIKE_BINS
-    with np.errstate(invalid="ignore"):
-        counted = np.isfinite(got).sum(axis=0)
-        total = np.where(np.isfinite(got), got, 0.0).sum(axis=0)
-        return np.where(counted > 0, total / np.maximum(counted, 1), math.nan)
 
 
 def sensor_values(folds: Mapping[str, Fold | FoldShape], ref: str, means: Mapping[str, np.ndarray],

@@ -37,14 +37,7 @@ import numpy.typing as npt
 from vadsim._checks import finite_1d
 from vadsim.signals.features import Feature
 from vadsim.signals.fold_features import QUANTILES, fold_tag, reference_sensor
-from vadsim.signals.fold_waveform import (
-    COARSE_BINS,
-    SPIKE_SHIFTS,
-    FoldShape,
-    sensor_values,
-    spike_over_shifts,
-    spike_position,
-)
+from vadsim.signals.fold_waveform import COARSE_BINS, FoldShape, sensor_values, spike_position
 from vadsim.signals.folding import FOLD_BINS, MAX_PERIOD, fold_sums
 
 __all__ = [
@@ -55,9 +48,8 @@ __all__ = [
     "noisy_quantiles",
 ]
 
-_SUPER = SPIKE_SHIFTS
-"""Super-fine bins per fine bin of a simulation's fold: the resolution of its alignment, and
-the sub-bin shifts its spike is read over (:func:`spike_over_shifts`)."""
+_SUPER = 8
+"""Super-fine bins per fine bin of a simulation's fold: the resolution of its alignment."""
 
 ALT_SPIKE_FRACTION: float = 0.6
 """In a simulated fold of period n > 1, every cycle whose largest spike reaches this fraction
@@ -96,22 +88,18 @@ def _alternative_spikes(probe: np.ndarray, period: int) -> dict[int, int]:
     return out
 
 
-def _aligned(count: np.ndarray, sums: np.ndarray, probe: np.ndarray, bins: int,
-             coarse: int, at: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """A super-fine fold aligned as :func:`vadsim.signals.fold_waveform.spike_origin` aligns
-    a recording: the reference's spike (located on its fine-bin means ``probe``,
-    :func:`_fine_probe`; the largest, or the one at fine bin ``at``) moved to the centre of
-    fine bin ``per // 2`` by a whole number of super-fine bins (within 1/16 of a fine bin)."""
+def _aligned_means(count: np.ndarray, sums: np.ndarray, probe: np.ndarray, bins: int,
+                   coarse: int, at: int | None = None) -> np.ndarray:
+    """Fine-bin means of a super-fine fold, aligned as
+    :func:`vadsim.signals.fold_waveform.spike_origin` aligns a recording: the reference's spike
+    (located on its fine-bin means ``probe``, :func:`_fine_probe`; the largest, or the one at
+    fine bin ``at``) moved to the centre of fine bin ``per // 2`` by a whole number of
+    super-fine bins (within 1/16 of a fine bin)."""
     spike = spike_position(probe, at)
     target = (bins // coarse) // 2 + 0.5
     shift = round((spike - target) * _SUPER) if math.isfinite(spike) else 0
-    return np.roll(count, -shift), np.roll(sums, -shift, axis=1)
-
-
-def _fine_means(count: np.ndarray, sums: np.ndarray) -> np.ndarray:
-    """Fine-bin means of an aligned super-fine fold."""
-    c = count.reshape(-1, _SUPER).sum(axis=1)
-    s = sums.reshape(sums.shape[0], -1, _SUPER).sum(axis=2)
+    c = np.roll(count, -shift).reshape(-1, _SUPER).sum(axis=1)
+    s = np.roll(sums, -shift, axis=1).reshape(sums.shape[0], -1, _SUPER).sum(axis=2)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.asarray(s / c)
 
@@ -228,14 +216,9 @@ def model_fold_features(
             folds = {k: FoldShape(n, f_hz) for k in names}
             probe = _fine_probe(c, s, names.index(ref))
             for alt, at in [(None, None), *_alternative_spikes(probe, n).items()]:
-                c_al, s_al = _aligned(c, s, probe, bins, coarse, at)
-                means = _fine_means(c_al, s_al)
+                means = _aligned_means(c, s, probe, bins, coarse, at)
                 vals = sensor_values(folds, ref, dict(zip(names, means, strict=True)), coarse,
                                       alternative=alt is not None)
-                spikes = spike_over_shifts(c_al, s_al, n, f_hz, coarse,
-                                           names.index(ref) if alt is not None else None)
-                for name, (height, width) in zip(names, spikes, strict=True):
-                    vals[name].update(peak_g=height, width_ms=width)
                 mark = "" if alt is None else f"{ALT_MARK}{alt}"
                 out.update({f"{k}_{fold_tag(n)}_{x}{mark}": Feature(y, math.nan, cycles)
                             for k, v in vals.items() for x, y in v.items()
