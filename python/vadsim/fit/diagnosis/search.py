@@ -365,12 +365,12 @@ def fitted_prospects(fits: Sequence[HypothesisFit], top: int
     null, at the same nuisance values), which full fits do not hold. Measured on the 6-event
     two-effect test campaign (a hydraulic force and anvil friction, 4 candidates): the force
     alone ended at both ends of its ranges and the pair step found no prospect."""
-    ranked = sorted((f for f in fits if len(f.keys) == 1), key=lambda f: f.score)
     chosen: list[HypothesisFit] = []
-    for f in ranked:
-        if CANDIDATES[f.keys[0]].id not in {CANDIDATES[g.keys[0]].id for g in chosen}:
+    ids: set[str] = set()
+    for f in sorted((f for f in fits if len(f.keys) == 1), key=lambda f: f.score):
+        if len(chosen) < top and CANDIDATES[f.keys[0]].id not in ids:
             chosen.append(f)
-    chosen = chosen[:top]
+            ids.add(CANDIDATES[f.keys[0]].id)
     return [(a.keys[0], b.keys[0], tuple(a.point[a.hypothesis.n_physics:]))
             for i, a in enumerate(chosen) for b in chosen[i + 1:]]
 
