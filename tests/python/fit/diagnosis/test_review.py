@@ -106,6 +106,42 @@ def test_a_first_step_fitted_in_full_gives_the_pair_step_its_prospects():
         ("hydraulic_force[anvil]", "contact_law", (1.084, 2.32)),
         ("anvil_friction", "contact_law", (1.004, 2.26))]
     assert len(search.fitted_prospects(fits, 2)) == 1
+    # a single that scores no better than the model it extends is no prospect
+    assert search.fitted_prospects(fits, search.PAIR_TOP, base_score=973.3) == [
+        ("hydraulic_force[anvil]", "anvil_friction", (1.084, 2.32))]
+
+
+def test_joint_probes_after_full_fits_are_measured_on_the_probes_own_events(monkeypatch):
+    """Where the pair step's prospects come from full fits, the single cost a joint probe
+    must cut is the best single's at its fitted point on the coarse engine and the probe
+    events -- not its full fit's cost over every event on the full engine, which a probe of
+    fewer events would clear whatever it found."""
+    measured: list[tuple[object, tuple[str, ...], tuple[float, ...]]] = []
+
+    class Costs:  # the coarse engine's cost: 10 per unit of the first coordinate
+        def __init__(self, ev, hyp, eids):
+            self.ev, self.eids = ev, tuple(eids)
+
+        def rss(self, point):
+            measured.append((self.ev, self.eids, tuple(point)))
+            return 10.0 * point[0]
+
+    def fit(key: str, point: tuple[float, ...], score: float, rss: float) -> HypothesisFit:
+        return replace(_fit((key,), point), nuisance_specs=DEFAULT_NUISANCE, score=score,
+                       rss=rss)
+
+    fits = [fit("anvil_friction", (215.6, 1.004, 2.26), 526.1, 900.0),
+            fit("hydraulic_force[anvil]", (60.0, 1.0, 1.084, 2.32), 7.9, 100.0)]
+    coarse = object()
+    monkeypatch.setattr(search, "HypothesisCosts", Costs)
+    monkeypatch.setattr(search, "fit_all", lambda *a, **k: ["probed"])
+    ctx = type("Ctx", (), {"probe_eids": ("e01", "e03")})()
+    base = replace(_fit((), (1.0, 0.0)), nuisance_specs=DEFAULT_NUISANCE, score=973.3)
+    joint, single = search.pair_probes(ctx, object(), coarse, base, fits, lambda _m: None)
+    assert joint == ["probed"]
+    assert single == 600.0  # the force's point on the coarse engine, not its fit's 100
+    assert {(ev, eids) for ev, eids, _p in measured} == {(coarse, ("e01", "e03"))}
+    assert sorted(p for _e, _i, p in measured) == [fits[1].point, fits[0].point]
 
 
 @pytest.mark.slow
