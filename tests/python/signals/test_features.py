@@ -17,7 +17,13 @@ from vadsim.signals.features import (
     features_table,
     summary_features,
 )
-from vadsim.signals.labels import impact_frequency, peak_stats, window_bounds, window_peaks
+from vadsim.signals.labels import (
+    IMPACT_HEIGHT_FRAC,
+    impact_frequency,
+    peak_stats,
+    window_bounds,
+    window_peaks,
+)
 from vadsim.signals.window_features import event_features, phase_features, sensor_features
 
 RATE = 1024.0
@@ -96,6 +102,41 @@ def test_spike_train_matches_labels(f: float) -> None:
     mean, std = peak_stats(a, RATE)
     assert feats["peak_mean_g"].value == mean
     assert feats["peak_std_g"].value == std
+
+
+def _beating_spikes(f: float, duration_s: float, low: float, high: float) -> np.ndarray:
+    """One spike per cycle whose height climbs from ``low`` to ``high`` over 24 cycles and
+    starts again (a spike's sampled height beating with the sampling), and a 10 g rebound
+    half a cycle later."""
+    n = round(duration_s * RATE)
+    a = np.zeros(n)
+    cycles = np.arange(math.ceil(duration_s * f))
+    idx = np.round((cycles + 0.5) * RATE / f).astype(int)
+    keep = idx < n
+    a[idx[keep]] = (low + (high - low) * (cycles % 24) / 23.0)[keep]
+    rebound = np.round((cycles + 1.0) * RATE / f).astype(int)
+    a[rebound[rebound < n]] = 10.0
+    return a
+
+
+def test_an_impact_count_whose_threshold_sits_among_the_spikes_is_uncertain() -> None:
+    """The threshold (half the median window peak, 23.7 g) sits just below the lowest
+    spikes (24 g): every window counts one per cycle, so the windows' spread is at its floor,
+    while a threshold 10 % higher drops the lowest spikes. The count's spread holds half its
+    change over that +-10 % move (blind-05's record at 200 gal/min); where the heights leave
+    a gap around the threshold, the spread is the windows' alone."""
+    f = 21.3
+    a = _beating_spikes(f, 8.0, 24.0, 60.0)
+    feats = sensor_features(a, RATE, f_exc_hz=f)
+    reference = float(np.median(window_peaks(a, RATE)))
+    counts = [np.count_nonzero(a > s * IMPACT_HEIGHT_FRAC * reference) for s in (0.9, 1.1)]
+    moved = 0.5 * (counts[0] - counts[1]) * RATE / a.size
+    assert moved > 0.5  # the construction puts spikes on both sides of the moved threshold
+    assert feats["impact_hz"].spread >= moved
+    assert feats["impacts_per_cycle"].spread == pytest.approx(feats["impact_hz"].spread / f)
+    gap = sensor_features(_beating_spikes(f, 8.0, 60.0, 80.0), RATE, f_exc_hz=f)
+    assert gap["impacts_per_cycle"].value == pytest.approx(1.0, abs=0.02)
+    assert gap["impact_hz"].spread == pytest.approx(floor(f, "hz"))
 
 
 def test_two_spikes_per_cycle() -> None:
