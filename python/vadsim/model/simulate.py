@@ -416,6 +416,12 @@ def _steady_parts(r: Any, mode: str) -> tuple[SteadyInfo, Orbit | None]:
     return info, orbit
 
 
+# Built once: a categorical built from its categories each run was most of the event
+# table's cost (0.56 -> 0.21 ms a run for 800 events; a map makes one a run).
+_SURFACE_DTYPE = pd.CategoricalDtype(SURFACES)
+_KIND_DTYPE = pd.CategoricalDtype(EVENT_KINDS)
+
+
 def _result(r: Any, params: _core.Params, preset: Preset | None, flow: float, cycles: float,
             analyse_cycles: float, steady: str = "auto") -> SimulationResult:
     """The core's raw result as a :class:`SimulationResult`."""
@@ -424,8 +430,8 @@ def _result(r: Any, params: _core.Params, preset: Preset | None, flow: float, cy
     events = pd.DataFrame(
         {
             "time_s": np.asarray(r.event_t),
-            "surface": pd.Categorical.from_codes(surf, SURFACES),
-            "kind": pd.Categorical.from_codes(kinds, EVENT_KINDS),
+            "surface": pd.Categorical.from_codes(surf, dtype=_SURFACE_DTYPE),
+            "kind": pd.Categorical.from_codes(kinds, dtype=_KIND_DTYPE),
             "rel_velocity_mps": np.asarray(r.event_rel_velocity),
         }
     )
