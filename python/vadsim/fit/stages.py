@@ -47,17 +47,19 @@ point (67.5, 1.69) with training cost 260, the truth (60, 2.0) costing 45; round
 
 
 def grid_points(hyp: Hypothesis, start: Point, free: Sequence[int],
-                max_per_axis: int | None = None, shape_per_axis: int | None = None
-                ) -> list[Point]:
+                max_per_axis: int | None = None, shape_per_axis: int | None = None,
+                per_axis: int | None = None) -> list[Point]:
     """The grid over the ``free`` coordinates (each spec's ``grid`` points, at most
     ``max_per_axis``, and at most ``shape_per_axis`` for a candidate parameter without a
-    null, e.g. a flow exponent; a periodic one starts at ``start``), the others held at
-    ``start``. The start point itself is always included."""
+    null, e.g. a flow exponent; ``per_axis`` points instead of the spec's own, where
+    given; a periodic one starts at ``start``), the others held at ``start``. The start
+    point itself is always included."""
     specs, u0 = hyp.specs, hyp.unit(start)
     axes = []
     for i in free:
         p = specs[i]
-        n = p.grid if max_per_axis is None else min(p.grid, max_per_axis)
+        n = p.grid if per_axis is None else per_axis
+        n = n if max_per_axis is None else min(n, max_per_axis)
         if shape_per_axis is not None and not isinstance(p, NuisanceSpec) and p.null is None:
             n = min(n, shape_per_axis)
         if isinstance(p, NuisanceSpec) and p.periodic:
@@ -135,7 +137,8 @@ class Stage:
     events, shorter runs) and only its :data:`COARSE_SEEDS` best points at full fidelity --
     a grid only has to find the basin. ``shape_per_axis``: fewer grid points for the
     parameters without a null (a shape, e.g. a flow exponent), where a grid over many
-    hypotheses would otherwise cost the product of every axis."""
+    hypotheses would otherwise cost the product of every axis. ``per_axis``: that many grid
+    points per axis in place of each spec's own (a fine profile of one coordinate)."""
 
     grid: tuple[int, ...] | None
     refine: tuple[int, ...]
@@ -146,6 +149,7 @@ class Stage:
     nominal_anchor: bool = False
     coarse: bool = False
     shape_per_axis: int | None = None
+    per_axis: int | None = None
 
 
 def run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
@@ -188,7 +192,8 @@ def run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
                 anchors += [nominal] if nominal != best else []
             pts = list(dict.fromkeys(p for a in anchors
                                      for p in grid_points(hyp, a, st.grid, st.max_per_axis,
-                                                             st.shape_per_axis)))
+                                                             st.shape_per_axis,
+                                                             st.per_axis)))
             if st.coarse and coarse is not None:
                 rough = coarse.event_rss(pts).sum(axis=1)
                 pts = [pts[i] for i in np.argsort(rough)[:max(st.starts, COARSE_SEEDS)]]

@@ -1021,3 +1021,46 @@ def test_a_candidate_at_its_bound_is_widened_and_refitted_beyond_it():
     assert at_bound.parameters["hydraulic_force"]["n"] == 3.0, d.summary()
     assert d.final.heldout_rms <= at_bound.heldout_rms, d.summary()
     assert "widened to" in d.summary() and d.verdict == "explained", d.summary()
+
+
+def test_a_chosen_models_refit_profiles_wob_finely_and_crosses_into_a_narrow_valley():
+    """The cost along WOB can hold a narrow valley beside a broad basin (blind-05: a contact
+    law at its written values costs 362 at WOB x1.00 and 56 at x0.90, 307 at x0.94 between):
+    the chosen model's refit (:func:`refit_stages`) profiles each non-periodic nuisance
+    constant on a fine grid, so it ends in the valley where a local search from x1.00 does
+    not, and the periodic theta0 gets no profile."""
+    from vadsim.fit.diagnosis.hypotheses import NUISANCE_PROFILE_POINTS, refit_stages
+    from vadsim.fit.hypothesis import Hypothesis
+    from vadsim.fit.nuisance import DEFAULT_NUISANCE
+    from vadsim.fit.stages import run_stages
+
+    hyp = Hypothesis(("contact_law",), DEFAULT_NUISANCE)
+
+    def cost(p):
+        factor, s, wob, theta0 = p
+        valley = 310.0 * math.exp(-(((wob - 0.90) / 0.02) ** 2))
+        return (100.0 * math.log(factor / 3.0) ** 2 + 100.0 * (s - 1.0) ** 2
+                + 360.0 - valley + 2000.0 * (wob - 1.0) ** 2
+                + 10.0 * (1.0 - math.cos(theta0 - 2.26)))
+
+    class Costs:
+        def __init__(self):
+            self.hyp = hyp
+
+        def rss(self, point):
+            return cost(point)
+
+        def event_rss(self, points):
+            return np.array([[cost(p)] for p in points])
+
+    stages = refit_stages(hyp)
+    profiles = [st for st in stages if st.per_axis is not None]
+    assert [st.grid for st in profiles] == [(hyp.n_physics,)]  # WOB, not theta0
+    assert profiles[0].per_axis == NUISANCE_PROFILE_POINTS >= 16
+    start = (2.97, 1.04, 1.0, 2.27)
+    rss, end = run_stages(Costs(), hyp, start, stages)
+    assert end[2] == pytest.approx(0.90, abs=0.02) and rss < 0.5 * cost(start)
+    # without the profile the same refit stays in the broad basin at x1.00
+    rss_local, end_local = run_stages(Costs(), hyp, start,
+                                      [st for st in stages if st.per_axis is None])
+    assert end_local[2] > 0.95 and rss_local > 0.8 * cost(start)
