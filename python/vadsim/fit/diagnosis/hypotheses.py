@@ -254,8 +254,8 @@ def refit_stages(hyp: Hypothesis, fine: str | None = None) -> list[Stage]:
     """A chosen model's refit from a nearby start: a grid over each candidate's parameters
     (5 per axis; ``fine``, a measurement-side candidate just put in, over its own full grid,
     as its resonance minima are narrow), a fine profile of each non-periodic nuisance
-    constant alone (:data:`NUISANCE_PROFILE_POINTS` over its range, on the coarse engine
-    where the model runs again), then every coordinate jointly.
+    constant alone (:data:`NUISANCE_PROFILE_POINTS` over its range, on the coarse engine),
+    then every coordinate jointly.
 
     Why the profile: the cost along WOB can hold narrow valleys a local search does not
     cross. Measured on blind-05 of the own-classes blind run (a contact law under WOB x0.9):
@@ -267,8 +267,9 @@ def refit_stages(hyp: Hypothesis, fine: str | None = None) -> list[Stage]:
                     max_per_axis=None if key == fine and not model_side(hyp, [key]) else 5,
                     coarse=model_side(hyp, [key]))
               for own, key in zip(hyp.coordinates(), hyp.keys, strict=True)]
+    # on the coarse engine whatever the candidates: a nuisance constant runs the model again
     stages += [Stage(grid=(hyp.n_physics + j,), refine=(), maxfev=0,
-                     per_axis=NUISANCE_PROFILE_POINTS, coarse=model_side(hyp))
+                     per_axis=NUISANCE_PROFILE_POINTS, coarse=True)
                for j, spec in enumerate(hyp.nuisance) if not spec.periodic]
     every = tuple(range(len(hyp.specs)))
     stages.append(Stage(grid=None, refine=every, maxfev=10 * len(every)))

@@ -1056,7 +1056,10 @@ def test_a_chosen_models_refit_profiles_wob_finely_and_crosses_into_a_narrow_val
     stages = refit_stages(hyp)
     profiles = [st for st in stages if st.per_axis is not None]
     assert [st.grid for st in profiles] == [(hyp.n_physics,)]  # WOB, not theta0
-    assert profiles[0].per_axis == NUISANCE_PROFILE_POINTS >= 16
+    assert profiles[0].per_axis == NUISANCE_PROFILE_POINTS >= 16 and profiles[0].coarse
+    # WOB runs the model again, also under a candidate that only re-measures
+    sensor = Hypothesis(("sensor_chain[x1]",), DEFAULT_NUISANCE)
+    assert [st.coarse for st in refit_stages(sensor) if st.per_axis] == [True]
     start = (2.97, 1.04, 1.0, 2.27)
     rss, end = run_stages(Costs(), hyp, start, stages)
     assert end[2] == pytest.approx(0.90, abs=0.02) and rss < 0.5 * cost(start)
