@@ -24,7 +24,7 @@ import argparse
 import json
 from pathlib import Path
 
-from vadsim.blind.regret import truth_point
+from vadsim.blind.truth_regret import truth_point
 from vadsim.campaigns import campaign_preset, load_campaign
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES

@@ -35,7 +35,7 @@ from vadsim.model.presets import (
 )
 from vadsim.model.result import SURFACES, G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import SolverError, extra_force, simulate
+from vadsim.model.simulation import SolverError, extra_force, simulate
 
 _aliases.install()
 

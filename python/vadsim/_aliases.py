@@ -23,7 +23,7 @@ __all__ = ["ALIASES", "MOVED_OUT", "deprecated", "install"]
 
 ALIASES: dict[str, str] = {
     "vadsim.presets": "vadsim.model.presets",
-    "vadsim.simulate": "vadsim.model.simulate",
+    "vadsim.simulate": "vadsim.model.simulation",
     "vadsim.labels": "vadsim.signals.labels",
     "vadsim.features": "vadsim.signals.features",
     "vadsim.sensor": "vadsim.signals.sensor",
@@ -38,6 +38,11 @@ ALIASES: dict[str, str] = {
     "vadsim.sweep": "vadsim.studies.sweep",
     "vadsim.design": "vadsim.studies.design",
     "vadsim.thesis": "vadsim.studies.thesis",
+    # renamed in 0.2 because each shared its name with the function its package exports
+    # (``vadsim.model.simulate`` was the function, never the module)
+    "vadsim.model.simulate": "vadsim.model.simulation",
+    "vadsim.blind.regret": "vadsim.blind.truth_regret",
+    "vadsim.report.render": "vadsim.report.rendering",
 }
 """Old module path -> the module that now holds it."""
 
@@ -94,19 +99,27 @@ class _AliasFinder(importlib.abc.MetaPathFinder):
                   ) -> importlib.machinery.ModuleSpec | None:
         if fullname not in ALIASES:
             return None
+        # the parent is imported before its child is looked for: guard its function of the
+        # old module's name before the import system binds the old module over it
+        parent = sys.modules.get(fullname.rpartition(".")[0])
+        if parent is not None and type(parent) is ModuleType:
+            parent.__class__ = _Facade
         return importlib.util.spec_from_loader(fullname, _AliasLoader())
 
 
 class _Facade(ModuleType):
-    """The ``vadsim`` package, which does not bind an old path's module to its short name.
+    """A package holding old paths (``vadsim``, ``vadsim.model``, ...), which does not bind an
+    old path's module to its short name.
 
     Python's import system sets ``vadsim.sweep`` once ``vadsim.sweep`` is imported; the short
     name would then skip the facade's ``__getattr__`` (and its warning), and ``import
-    vadsim.simulate`` would replace the function. Old paths stay reachable through
-    ``sys.modules``."""
+    vadsim.simulate`` (or ``vadsim.model.simulate``) would replace the function of that name.
+    Old paths stay reachable through ``sys.modules``; in a sub-package, an old path whose
+    short name the package does not hold is bound as usual (``vadsim.fit.diagnose``)."""
 
     def __setattr__(self, name: str, value: Any) -> None:
-        if isinstance(value, _Forwarding):
+        if isinstance(value, _Forwarding) and (self.__name__ == "vadsim"
+                                               or name in self.__dict__):
             return
         super().__setattr__(name, value)
 

@@ -8,6 +8,7 @@
 - every old import path (``vadsim.sweep``, ``vadsim.presets``...) still reads the module that
   now holds it, with a DeprecationWarning naming the new path, and ``vadsim.simulate`` stays
   the function; no old path is used inside the repository;
+- every module is reached by its path: no package exports a name that hides a module;
 - no module is longer than ``MAX_MODULE_LINES``;
 - no ``vadsim.fit`` module imports ``vadsim.report`` or ``vadsim.plots`` (results are data; their
   words and figures live above them).
@@ -17,8 +18,10 @@ from __future__ import annotations
 
 import ast
 import importlib
+import pkgutil
 import re
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 import vadsim
@@ -156,6 +159,27 @@ def test_old_import_paths_read_the_new_modules_with_a_warning(old: str) -> None:
         got = getattr(module, name)
     assert got is getattr(new, name)
     assert callable(vadsim.simulate), "importing an old path must not replace vadsim.simulate"
+    package, _, leaf = old.rpartition(".")
+    if leaf in getattr(importlib.import_module(package), "__all__", ()):
+        # renamed because its package exports a function of that name, which stays
+        assert not isinstance(getattr(importlib.import_module(package), leaf), ModuleType), \
+            f"importing {old} replaced {package}.{leaf}"
+
+
+def test_every_module_is_reached_by_its_path() -> None:
+    """``vadsim.a.b`` read as an attribute is the module ``vadsim.a.b``: no package exports a
+    name that hides one of its modules (``vadsim.model.simulate`` was the function, and
+    ``import vadsim.model.simulate as m`` gave it)."""
+    hidden = {}
+    for info in pkgutil.walk_packages([str(PACKAGE)], "vadsim."):
+        if info.name.endswith("__main__"):
+            continue
+        module = importlib.import_module(info.name)
+        parent, _, leaf = info.name.rpartition(".")
+        got = getattr(importlib.import_module(parent), leaf, None)
+        if got is not module:
+            hidden[info.name] = type(got).__name__
+    assert not hidden, hidden
 
 
 @pytest.mark.parametrize("old", sorted(MOVED_OUT))

@@ -38,7 +38,6 @@ import numpy as np
 
 from vadsim._progress import ProgressArg, bar, reporter
 from vadsim.blind.independent import write_campaign as write_independent_campaign
-from vadsim.blind.regret import regret, truth_is_library_point
 from vadsim.blind.scenarios import (
     CLASSES,
     DEFAULT_FLOWS,
@@ -50,6 +49,7 @@ from vadsim.blind.scenarios import (
     scenarios_of,
 )
 from vadsim.blind.scoring import CRITERIA, normalise_result, normalise_truth, score
+from vadsim.blind.truth_regret import regret, truth_is_library_point
 from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import CampaignEvaluator
@@ -235,7 +235,7 @@ def _diagnose_all(camp_dir: Path, res_dir: Path, names: Sequence[str], *, cycles
 def _add_regrets(camp_dir: Path, res_dir: Path, results: dict[str, dict[str, Any]],
                  truth: Mapping[str, Any], *, cycles: float, analyse_cycles: float,
                  workers: int | None, progress: ProgressArg) -> None:
-    """Each diagnosed campaign's regret against its truth (:mod:`vadsim.blind.regret`),
+    """Each diagnosed campaign's regret against its truth (:mod:`vadsim.blind.truth_regret`),
     kept in ``results/<name>.regret.json`` beside the diagnosis and added to its result.
     Runs only after every diagnosis: the truth is read for scoring alone."""
     say = reporter(progress)
@@ -286,7 +286,7 @@ def blind_benchmark(
     ``finished_only`` scores the campaigns already diagnosed and runs nothing (the scores
     then say how many of the selected campaigns they cover). ``regrets`` (default on)
     evaluates each campaign's chosen and true models after its diagnosis
-    (:mod:`vadsim.blind.regret`; a few seconds a campaign) and scores the search failures.
+    (:mod:`vadsim.blind.truth_regret`; a few seconds a campaign) and scores the search failures.
     """
     root = Path(folder)
     camp_dir = root / "campaigns"

@@ -30,7 +30,7 @@ Rules
   inside their 95 % interval; a calibrated uncertainty covers about 95 % of them.
 * false alarms over every null-like campaign: the null and nuisance_null classes and the
   nulls of the other classes.
-* regret (:mod:`vadsim.blind.regret`, where the result carries one): the chosen model's
+* regret (:mod:`vadsim.blind.truth_regret`, where the result carries one): the chosen model's
   training cost minus the true model's; a regret beyond the noise is a search failure,
   whatever the verdict. Scored as the share of campaigns within the noise.
 """

@@ -26,7 +26,7 @@ from vadsim.campaigns.synthetic import DEFAULT_SENSORS
 from vadsim.model.presets import get_preset
 from vadsim.model.result import G, SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import simulate
+from vadsim.model.simulation import simulate
 from vadsim.signals.sensor import SIMULATION_OVERSAMPLING, sensor_chain
 
 __all__ = ["RECORD_COLUMNS", "FlowStepTest", "flow_step_test"]

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from vadsim import __version__
 from vadsim.cli import campaigns, imports, run, studies
 from vadsim.cli.common import make_parents
-from vadsim.model.simulate import SolverError
+from vadsim.model.simulation import SolverError
 
 __all__ = ["build_parser", "main"]
 

@@ -24,7 +24,7 @@ from vadsim.cli.common import (
 )
 from vadsim.model.presets import PRESETS, get_preset, param_table
 from vadsim.model.result import SURFACES, SimulationResult
-from vadsim.model.simulate import simulate
+from vadsim.model.simulation import simulate
 from vadsim.signals.labels import regime_name
 
 if TYPE_CHECKING:

@@ -41,7 +41,7 @@ from vadsim.model.change import ModelChange
 from vadsim.model.defaults import DEFAULTS
 from vadsim.model.result import SimulationResult
 from vadsim.model.settings import RunSettings
-from vadsim.model.simulate import SolverError
+from vadsim.model.simulation import SolverError
 from vadsim.signals.features import Feature
 from vadsim.signals.fold_features import (
     fold_periods,

@@ -40,7 +40,7 @@ from vadsim.compare import (
 )
 from vadsim.model.change import Measurement, ModelChange
 from vadsim.model.result import G, SimulationResult
-from vadsim.model.simulate import SolverError
+from vadsim.model.simulation import SolverError
 from vadsim.model.steady import steady_run
 from vadsim.signals.features import Feature
 from vadsim.signals.fold_features import fold_periods

@@ -2,7 +2,7 @@
 (:class:`SteadyInfo`) and the periodic orbit (:class:`Orbit`).
 
 Why this module exists: every layer above the model reads results (labels, features, the
-comparison engine, plots), while only :func:`vadsim.model.simulate.simulate` makes them. The
+comparison engine, plots), while only :func:`vadsim.model.simulation.simulate` makes them. The
 result's arrays, event table and steady-window summary, and the constants that label them
 (gravity ``G``, the contact ``SURFACES``, ``EVENT_KINDS``, ``DOF_NAMES``), live here, apart
 from the checks and the call into the C++ core.

@@ -30,7 +30,7 @@ from vadsim.model.presets import (
     override_values,
 )
 from vadsim.model.result import SimulationResult
-from vadsim.model.simulate import extra_force, simulate
+from vadsim.model.simulation import extra_force, simulate
 
 __all__ = ["ExtraSpec", "RunSettings", "excitation_hz"]
 

@@ -1,7 +1,7 @@
 """Reports: Markdown and HTML documents of validations, diagnoses and the blind benchmark.
 
 Why this package exists: every report is a table, some findings and some figures, rendered
-to Markdown or HTML; the rendering lives here, once (:mod:`vadsim.report.render`: Jinja2
+to Markdown or HTML; the rendering lives here, once (:mod:`vadsim.report.rendering`: Jinja2
 templates under ``templates/``, tables by pandas), and the analysis modules only compute.
 
 * :mod:`~vadsim.report.validation`: :func:`write_validation_report` (``report.md``/``.html``);
@@ -16,6 +16,6 @@ and :mod:`vadsim.blind` imports :mod:`vadsim.report.blind` at its top.
 
 from __future__ import annotations
 
-from vadsim.report.render import FORMATS, fmt_value, render
+from vadsim.report.rendering import FORMATS, fmt_value, render
 
 __all__ = ["FORMATS", "fmt_value", "render"]

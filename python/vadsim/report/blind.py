@@ -3,7 +3,7 @@
 This module turns the scores of :func:`vadsim.blind.score` into tables: the acceptance
 criteria, a summary per class, identification per candidate, then one table per class with a
 row per campaign. The text and the layout are the template ``templates/blind.j2``, rendered
-by :func:`vadsim.report.render.render`.
+by :func:`vadsim.report.rendering.render`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 
 import pandas as pd
 
-from vadsim.report.render import render
+from vadsim.report.rendering import render
 
 __all__ = ["blind_markdown"]
 

@@ -4,7 +4,7 @@ and ``diagnosis.json``.
 
 This module gathers what the report says (tables as DataFrames, figures as files); the text
 and the layout are the template ``templates/diagnosis.j2``, rendered by
-:func:`vadsim.report.render.render`.
+:func:`vadsim.report.rendering.render`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis import Diagnosis
 from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.plots.campaigns import heldout_features, mismatch_base
-from vadsim.report.render import check_format, fmt_value, render, write
+from vadsim.report.rendering import check_format, fmt_value, render, write
 from vadsim.report.text import verdict_text
 
 __all__ = ["write_diagnosis_report"]

@@ -19,7 +19,7 @@ import pandas as pd
 
 from vadsim.model.presets import get_preset
 from vadsim.plots import peaks_vs_flow, regime_map
-from vadsim.report.render import render, write
+from vadsim.report.rendering import render, write
 from vadsim.studies.design import STUDIES
 from vadsim.studies.reproduction import Reproduction
 

@@ -14,7 +14,7 @@ from vadsim._render import register
 from vadsim.fit.diagnosis import Diagnosis
 from vadsim.fit.diagnosis.search import PAIR_SCREEN_REPORT
 from vadsim.fit.hypothesis_fit import HypothesisFit
-from vadsim.report.render import fmt_value
+from vadsim.report.rendering import fmt_value
 
 __all__ = ["SUMMARY_LEGEND", "diagnosis_html", "diagnosis_summary", "edges_text",
            "params_text", "verdict_text"]

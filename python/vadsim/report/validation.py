@@ -3,7 +3,7 @@ map and one table per event (Markdown or HTML, with its figures).
 
 This module gathers what the report says (tables as DataFrames, figures as files); the text
 and the layout are the template ``templates/validation.j2``, rendered by
-:func:`vadsim.report.render.render`.
+:func:`vadsim.report.rendering.render`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import pandas as pd
 from vadsim import plots
 from vadsim._version import __version__ as _version
 from vadsim.fit.validate import ValidationResult
-from vadsim.report.render import check_format, render, write
+from vadsim.report.rendering import check_format, render, write
 
 __all__ = ["findings", "write_validation_report"]
 

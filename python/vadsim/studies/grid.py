@@ -22,7 +22,7 @@ import numpy as np
 from vadsim.model.presets import get_preset, make_params
 from vadsim.model.result import SURFACES, G
 from vadsim.model.settings import ExtraSpec, RunSettings
-from vadsim.model.simulate import SolverError
+from vadsim.model.simulation import SolverError
 from vadsim.signals.labels import impact_frequency, periodicity, poincare_period, scenario
 from vadsim.studies.refine import Refinement
 from vadsim.studies.rows import FEATURES, STORE_FORMAT

@@ -1,4 +1,4 @@
-"""Regret against the truth (vadsim.blind.regret): the chosen model's training cost minus the
+"""Regret against the truth (vadsim.blind.truth_regret): the chosen model's training cost minus the
 true model's, with the noise that separates a search failure from a fit within the noise."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 
 import pytest
 from vadsim.blind import Scenario, write_campaigns
-from vadsim.blind.regret import NOISE_SIGMAS, chosen_point, regret, truth_point
+from vadsim.blind.truth_regret import NOISE_SIGMAS, chosen_point, regret, truth_point
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, resolve_nuisance
 from vadsim.model.presets import get_preset
 from vadsim.model.settings import RunSettings
