@@ -13,7 +13,8 @@ returns a :class:`HypothesisFit`:
   local refinements, as the :class:`~vadsim.fit.stages.Stage` list given says;
 * **interval** (:mod:`vadsim.fit.intervals`): per parameter, the wider of a 95 % profile
   interval from every point evaluated on all events and a delete-one-flow jackknife interval
-  from the leave-one-flow-out folds' refits;
+  from the leave-one-flow-out folds' refits; a model that is reported has its intervals
+  walked out from its optimum too (:func:`with_walked_intervals`);
 * **held-out score** (:mod:`vadsim.fit.scoring`): each fold refitted among the points
   evaluated on every event and its held-out events predicted at the *predictive* cost; the
   error is the RMS standardised residual pooled over all held-out predictions, and the score
@@ -27,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -35,12 +36,14 @@ import numpy as np
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.hypothesis import Fold, Hypothesis, HypothesisCosts, Point
+from vadsim.fit.interval_walk import walk_intervals
 from vadsim.fit.intervals import fold_estimates, jackknife_interval, profile_interval, widest
 from vadsim.fit.nuisance import NuisanceSpec
 from vadsim.fit.scoring import aicc, events_cost, is_block_fold, score_folds
 from vadsim.fit.stages import Stage, run_stages
 
-__all__ = ["AT_BOUND", "TOP_POINTS", "HypothesisFit", "fit_hypothesis"]
+__all__ = ["AT_BOUND", "TOP_POINTS", "HypothesisFit", "fit_hypothesis",
+           "with_walked_intervals"]
 
 TOP_POINTS = 3
 """How many of the best points a fit keeps as starts for a finer fit."""
@@ -257,3 +260,22 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
         point_rss=dict(zip(points, point_rss.tolist(), strict=True)))
     progress(f"{fit.key}: held-out RMS {fit.heldout_rms:.3f}, score {fit.score:.1f}")
     return fit
+
+
+def with_walked_intervals(ev: CampaignEvaluator, fit: HypothesisFit, eids: list[str],
+                          progress: Callable[[str], None] = lambda _m: None) -> HypothesisFit:
+    """``fit`` with its intervals widened by walking the cost out from its optimum on every
+    event (:func:`vadsim.fit.interval_walk.walk_intervals`); the rest unchanged.
+
+    Why only for a reported model: the walk runs new points (tens per coordinate), and only
+    the model a diagnosis reports has its intervals read."""
+    hyp = fit.hypothesis
+    if not hyp.specs or not fit.point_rss:
+        return fit
+    n0 = ev.n_evals
+    intervals = walk_intervals(HypothesisCosts(ev, hyp, eids), fit.point, fit.intervals,
+                               list(fit.point_rss), np.array(list(fit.point_rss.values())),
+                               len(eids))
+    progress(f"{fit.key}: intervals walked out from the optimum "
+             f"({(ev.n_evals - n0) // max(len(eids), 1)} points)")
+    return replace(fit, intervals=intervals, n_evals=fit.n_evals + ev.n_evals - n0)

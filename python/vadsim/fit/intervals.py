@@ -30,7 +30,14 @@ from vadsim.fit.nuisance import NuisanceSpec
 if TYPE_CHECKING:
     from vadsim.fit.hypothesis import Hypothesis, Point
 
-__all__ = ["fold_estimates", "jackknife_interval", "profile_interval", "widest"]
+__all__ = ["fold_estimates", "jackknife_interval", "profile_interval", "profile_limit",
+           "valley_directions", "widest"]
+
+
+def profile_limit(best_rss: float, records: int, k: int) -> float:
+    """The profile interval's cost threshold: ``RSS_min + 3.84 s^2`` with
+    ``s^2 = RSS_min / (records - k)`` (at least ``RSS_min``)."""
+    return best_rss + 3.84 * best_rss / max(records - k, 1)
 
 
 def profile_interval(hyp: Hypothesis, points: list[Point], rss: np.ndarray, records: int
@@ -60,7 +67,7 @@ def profile_interval(hyp: Hypothesis, points: list[Point], rss: np.ndarray, reco
     k = len(hyp.specs)
     best = float(rss.min())
     at_best = points[int(np.argmin(rss))]
-    limit = best + 3.84 * best / max(records - k, 1)
+    limit = profile_limit(best, records, k)
     out = []
     for j, p in enumerate(hyp.specs):
         vals = np.array([pt[j] for pt in points])
@@ -131,12 +138,10 @@ def _unit_offsets(hyp: Hypothesis, best: Point, points: Sequence[Point]) -> np.n
     return u
 
 
-def _quadratic_min(x: np.ndarray, c: np.ndarray) -> np.ndarray | None:
-    """Minimum of the quadratic least-squares fit of costs ``c`` at points ``x`` (rows),
-    within the points' bounding box widened by its width on each side (a fold's optimum may
-    lie past a cluster of refinement points, but not far: the fit is local); None where the
-    fit is not a bowl (too few points for its coefficients, or a Hessian that is not
-    positive definite)."""
+def _quadratic(x: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Gradient at 0 and Hessian of the quadratic least-squares fit of costs ``c`` at points
+    ``x`` (rows); None where the fit is not a bowl (too few points for its coefficients, or a
+    Hessian that is not positive definite)."""
     n, k = x.shape
     iu = np.triu_indices(k)
     feats = np.hstack([np.ones((n, 1)), x, (x[:, :, None] * x[:, None, :])[:, iu[0], iu[1]]])
@@ -152,8 +157,59 @@ def _quadratic_min(x: np.ndarray, c: np.ndarray) -> np.ndarray | None:
     w = np.linalg.eigvalsh(h)
     if not w[0] > 1e-9 * max(abs(w[-1]), 1e-300):
         return None
+    return g, h
+
+
+def _quadratic_min(x: np.ndarray, c: np.ndarray) -> np.ndarray | None:
+    """Minimum of the quadratic least-squares fit of costs ``c`` at points ``x`` (rows),
+    within the points' bounding box widened by its width on each side (a fold's optimum may
+    lie past a cluster of refinement points, but not far: the fit is local); None where the
+    fit is not a bowl."""
+    fit = _quadratic(x, c)
+    if fit is None:
+        return None
+    g, h = fit
     lo, hi = x.min(axis=0), x.max(axis=0)
     return np.clip(np.linalg.solve(h, -g), lo - (hi - lo), hi + (hi - lo))
+
+
+def _near_best(hyp: Hypothesis, best: Point, points: Sequence[Point], total: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The points nearest the optimum in cost, enough for a quadratic in the coordinates
+    they vary: (their indices, those coordinates, their scaled offsets from ``best``, the
+    scales)."""
+    u = _unit_offsets(hyp, best, points)
+    free = np.flatnonzero(np.ptp(u, axis=0) > 0)
+    n_coef = (len(free) + 1) * (len(free) + 2) // 2
+    near = np.argsort(total)[:max(4 * n_coef, 30)]
+    x = u[np.ix_(near, free)]
+    scale = x.std(axis=0)
+    scale[scale == 0] = 1.0
+    return near, free, x / scale, scale
+
+
+def valley_directions(hyp: Hypothesis, best: Point, points: Sequence[Point],
+                      point_rss: np.ndarray) -> np.ndarray | None:
+    """Per coordinate ``j``, the direction in the unit box along which the cost's valley
+    floor runs as ``j`` moves (row ``j``, its ``j`` component 1): ``H^-1 e_j`` of a
+    quadratic fitted to the points nearest the optimum, the direction a profile over the
+    other coordinates follows where they trade off with ``j``. None where the points give no
+    bowl."""
+    k = len(hyp.specs)
+    if k == 0 or len(points) < 3:
+        return None
+    near, free, x, scale = _near_best(hyp, best, points, np.asarray(point_rss))
+    if free.size == 0:
+        return None
+    fit = _quadratic(x, np.asarray(point_rss)[near])
+    if fit is None:
+        return None
+    cov = np.linalg.inv(fit[1])
+    out = np.zeros((k, k))
+    for a, j in enumerate(free):
+        v = cov[:, a] * scale / scale[a]  # back to unit coordinates, j's component 1
+        out[j, free] = v / v[a]
+    return out
 
 
 def fold_estimates(hyp: Hypothesis, best: Point, points: Sequence[Point],
@@ -171,17 +227,11 @@ def fold_estimates(hyp: Hypothesis, best: Point, points: Sequence[Point],
     specs = hyp.specs
     if not specs or len(points) < 3:
         return list(fold_points)
-    u = _unit_offsets(hyp, best, points)
     total = np.sum(train_costs, axis=0) if len(train_costs) else np.zeros(len(points))
-    free = np.flatnonzero(np.ptp(u, axis=0) > 0)
-    n_coef = (len(free) + 1) * (len(free) + 2) // 2
-    near = np.argsort(total)[:max(4 * n_coef, 30)]
-    x = u[np.ix_(near, free)]
-    scale = x.std(axis=0)
-    scale[scale == 0] = 1.0
+    near, free, x, scale = _near_best(hyp, best, points, total)
     out = []
     for cost, fallback in zip(train_costs, fold_points, strict=True):
-        dx = _quadratic_min(x / scale, np.asarray(cost)[near]) if free.size else None
+        dx = _quadratic_min(x, np.asarray(cost)[near]) if free.size else None
         if dx is None:
             out.append(fallback)
             continue

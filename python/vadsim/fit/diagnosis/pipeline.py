@@ -42,7 +42,7 @@ from vadsim.fit.diagnosis.policy import (
 )
 from vadsim.fit.diagnosis.result import Diagnosis, jsonable
 from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
-from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis
+from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis, with_walked_intervals
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
 from vadsim.model.cache import ResultCache, default_cache
 from vadsim.model.presets import Preset
@@ -127,8 +127,7 @@ def diagnose(
                   max_effects=max_effects, screen_top=screen_top, max_rms=max_rms,
                   noise_rms=noise_rms)
     _check_run(block_fraction, phases, scheduler)
-    store = default_cache(cache)
-    cache_folder: str | bool = str(store.folder) if store is not None else False
+    cache_folder: str | bool = str(st.folder) if (st := default_cache(cache)) else False
     say = reporter(progress)
     camp = load_any_campaign(campaign)
     keys = keys_for(list(candidates) if candidates is not None else None)
@@ -157,8 +156,9 @@ def diagnose(
         none = none_model(base, plain)
         sel = selection.forward_selection(ctx, ev, coarse_ev, base, none, keys, pol, say,
                                           bar_tick(b))
-        chosen, reviewed, wider = _reviewed(ctx, ev, coarse_ev, sel, keys, pol, say, review)
-        final = chosen or none
+        chosen, base, reviewed, wider = _reviewed(ctx, ev, coarse_ev, sel, base, keys, pol,
+                                                  say, review)
+        final = chosen or none_model(base, plain)
         noise = _noise_check(ev, chosen, final, pol, say)
         baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),
                                     strict=True)) for e in eids}
@@ -181,19 +181,24 @@ def diagnose(
 
 
 def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
-              sel: selection.Selection, keys: list[str], pol: Policy,
+              sel: selection.Selection, base: HypothesisFit, keys: list[str], pol: Policy,
               say: Callable[[str], None], review: bool
-              ) -> tuple[HypothesisFit | None, list[dict[str, Any]], list[dict[str, Any]]]:
+              ) -> tuple[HypothesisFit | None, HypothesisFit, list[dict[str, Any]],
+                         list[dict[str, Any]]]:
     """The chosen model after the review (:func:`~vadsim.fit.diagnosis.selection.review`,
     if asked) and over the ranges it asks for
-    (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`): the model, the review's
-    records and the widenings."""
+    (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`), the calibrated base model, the
+    review's records and the widenings. The reported model's intervals are walked out from
+    its optimum (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`): the chosen
+    model's, or where nothing is chosen the base model's (its constants are reported with
+    "none"); nothing else changes."""
+    eids = list(ctx.eids)
     chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                         if review else (sel.chosen, []))
     if chosen is None:
-        return None, reviewed, []
+        return None, with_walked_intervals(ev, base, eids, say), reviewed, []
     chosen, widened = refit_widening(ctx, ev, coarse_ev, chosen, say)
-    return chosen, reviewed, widened
+    return with_walked_intervals(ev, chosen, eids, say), base, reviewed, widened
 
 
 def _noise_check(ev: CampaignEvaluator, chosen: HypothesisFit | None, final: HypothesisFit,
