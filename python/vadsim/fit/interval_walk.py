@@ -43,7 +43,7 @@ search box, and far outside it at 1/32 of the box)."""
 WALK_BISECTIONS = 3
 """Bisections between a walker's last point inside the threshold and its first outside."""
 
-_MAX_ROUNDS = 16
+_MAX_ROUNDS = 16  # doubling from 1/1024 of the box to all of it is 10, then the bisections
 
 
 @dataclass
