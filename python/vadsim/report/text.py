@@ -12,6 +12,7 @@ import textwrap
 from vadsim._html import grid_table, key_value_table
 from vadsim._render import register
 from vadsim.fit.diagnosis import Diagnosis
+from vadsim.fit.diagnosis.operating_point import operating_point_text
 from vadsim.fit.diagnosis.search import PAIR_SCREEN_REPORT
 from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.report.rendering import fmt_value
@@ -47,6 +48,8 @@ def diagnosis_summary(diag: Diagnosis) -> str:
             + (": the effect below was chosen on the held-out fit of all the features "
                "together, where small shifts of many add up" if diag.chosen else ""),
             96, subsequent_indent="  ")
+    if (op := operating_point_text(diag.operating_point)) is not None:
+        lines += textwrap.wrap(op, 96, subsequent_indent="  ")
     nuis = ", ".join(f"{k} = {fmt_value(v)}" for k, v in diag.baseline.nuisance.items())
     which = "nominal" if diag.none_fit is diag.uncalibrated else "calibrated"
     lines.append(f"base model: held-out RMS {diag.uncalibrated.heldout_rms:.3f} nominal, "
@@ -99,7 +102,21 @@ def diagnosis_summary(diag: Diagnosis) -> str:
 
 
 def verdict_text(diag: Diagnosis) -> str:
-    """One sentence: what is missing, or that nothing is, or what is left unexplained."""
+    """One sentence: what is missing, or that nothing is, or what is left unexplained; and
+    where the records ran off their stated flows, that it holds at the flows stated."""
+    return _verdict_sentence(diag) + _operating_point_caveat(diag)
+
+
+def _operating_point_caveat(diag: Diagnosis) -> str:
+    off = sorted(r["off"] for r in diag.operating_point if r["beyond"])
+    if not off:
+        return ""
+    return (f"; but {len(off)} of {len(diag.operating_point)} records ran off their stated "
+            f"flows, by {100 * off[len(off) // 2]:+.1f} % (median): the model ran at the "
+            f"flows stated, not at those run (operating point)")
+
+
+def _verdict_sentence(diag: Diagnosis) -> str:
     b, f = diag.none_fit.heldout_rms, diag.final.heldout_rms
     which = "nominal" if diag.none_fit is diag.uncalibrated else "calibrated"
     noise = diag.noise

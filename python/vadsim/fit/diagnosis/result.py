@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
 from vadsim._render import render
 from vadsim.campaigns import Campaign
+from vadsim.fit.diagnosis.operating_point import operating_point
 from vadsim.fit.diagnosis.policy import Policy, none_model
 from vadsim.fit.hypothesis import Fold
 from vadsim.fit.hypothesis_fit import HypothesisFit
@@ -95,6 +97,13 @@ class Diagnosis:
         """The base model that "none" stands for (:func:`none_model`)."""
         return none_model(self.baseline, self.uncalibrated)
 
+    @cached_property
+    def operating_point(self) -> list[dict[str, Any]]:
+        """Each recorded event's excitation line against its stated flow
+        (:func:`~vadsim.fit.diagnosis.operating_point.operating_point`): evidence the fits do
+        not see, where a record ran at another flow than stated."""
+        return operating_point(self.campaign, self.preset, self.settings.get("overrides"))
+
     @property
     def final(self) -> HypothesisFit:
         """The model the verdict is about: the chosen effects, else :attr:`none_fit`."""
@@ -142,6 +151,7 @@ class Diagnosis:
             "widened_nuisance": self.widened_nuisance,
             "widened_chosen": self.widened_chosen,
             "noise": self.noise,
+            "operating_point": self.operating_point,
         }
         if self.prediction is not None:
             out["prediction"] = self.prediction

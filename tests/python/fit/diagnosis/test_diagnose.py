@@ -685,6 +685,23 @@ def test_null_campaign_with_wob_10_percent_off_gives_none():
     assert set(d.as_json()["nuisance"]) == {"wob_scale", "theta0"}
 
 
+def test_a_campaign_run_3_percent_above_its_stated_flows_says_so():
+    """Each record folds at its own frequency and the calibration absorbs part of the rest,
+    so what differs is not located in any feature; the records' excitation lines name the
+    operating point, in the summary, the verdict and the JSON (issue: evidence the record
+    states directly)."""
+    camp = synthetic_campaign("7in-cde", tuple(1.03 * q for q in FLOWS), seed=12, **SMALL)
+    camp.events = [dataclasses.replace(e, flow_gpm=q) for e, q in zip(camp.events, FLOWS,
+                                                                          strict=True)]
+    d = _diagnose(camp, candidates=["hydraulic_force[anvil]"])
+    rows = d.as_json()["operating_point"]
+    assert [r["beyond"] for r in rows] == [True] * len(FLOWS), rows
+    assert all(r["implied_flow_gpm"] == pytest.approx(1.03 * r["flow_gpm"], rel=3e-3)
+               for r in rows)
+    assert "operating point: the records' excitation runs off" in d.summary()
+    assert "records ran off their stated flows, by +3.0 %" in d.verdict_text()
+
+
 @pytest.mark.slow
 def test_two_effects_at_once_are_both_named():
     """Both are named, with the friction's size: the hydraulic force alone ends at ends of
@@ -761,8 +778,12 @@ def test_cli_json_has_the_promised_keys(tmp_path, capsys, hydraulic_campaign):
     assert rc == 0
     js = json.loads(capsys.readouterr().out)
     for key in ("verdict", "missing_physics", "parameters", "intervals", "nuisance", "located",
-                "heldout_error_before", "heldout_error_after", "ranking", "steps"):
+                "heldout_error_before", "heldout_error_after", "ranking", "steps",
+                "operating_point"):
         assert key in js
+    # written at the flows it states: every event's excitation line where the flow puts it
+    assert len(js["operating_point"]) == len(FLOWS)
+    assert not any(r["beyond"] for r in js["operating_point"]), js["operating_point"]
     assert js["missing_physics"] == ["hydraulic_force"]
     assert js["heldout_error_after"] < js["heldout_error_before"]
     assert [r["candidate"] for r in js["ranking"]][0] == "none"
