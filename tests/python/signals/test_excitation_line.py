@@ -27,7 +27,7 @@ def _ringing_train(f_hz: float, seconds: float, noise_g: float = 0.3, seed: int 
     t = np.arange(int(seconds * RATE)) / RATE
     phase = (t * f_hz) % 1.0 / f_hz  # time since the last impact, s
     ring = 60.0 * np.exp(-phase / 0.004) * np.sin(2 * np.pi * 1010.0 * phase)
-    forced = 5.0 * np.sin(2 * np.pi * f_hz * t)
+    forced = 20.0 * np.sin(2 * np.pi * f_hz * t)  # the fundamental the strongest line
     return ring + forced + np.random.default_rng(seed).normal(0.0, noise_g, t.size)
 
 
@@ -41,11 +41,11 @@ def test_the_line_of_an_aliased_impact_train_is_its_excitation(f_hz):
     assert line.blocks == 3 and line.spread_hz < 2e-3 * f_hz
 
 
-def test_a_record_that_does_not_repeat_has_a_wide_spread():
+def test_a_record_that_does_not_repeat_is_not_read():
     rng = np.random.default_rng(1)
-    a = rng.normal(0.0, 5.0, int(4 * RATE))
-    line = excitation_line(a, RATE, 30.0)
-    assert math.isfinite(line.hz) and line.spread_hz > 5e-3 * 30.0
+    line = excitation_line(rng.normal(0.0, 5.0, int(4 * RATE)), RATE, 30.0)
+    assert not line.periodic and math.isnan(line.spread_hz)
+    assert excitation_line(_ringing_train(30.0, 4.0), RATE, 30.0).periodic
 
 
 def test_bad_arguments_are_named():
@@ -73,8 +73,10 @@ def test_records_run_3_percent_above_their_stated_flows_are_reported_with_their_
     camp.events = [dataclasses.replace(e, flow_gpm=q) for e, q in zip(camp.events, FLOWS,
                                                                           strict=True)]
     rows = operating_point(camp, get_preset("7in-cde"))
-    assert all(r["beyond"] for r in rows), rows
+    read = [r for r in rows if r["periodic"]]  # 400 gal/min is erratic on 3 s records
+    assert len(read) >= 4 and all(r["beyond"] for r in read), rows
+    assert not any(r["beyond"] for r in rows if not r["periodic"])
     for r, q in zip(rows, FLOWS, strict=True):
         assert r["implied_flow_gpm"] == pytest.approx(1.03 * q, rel=2e-3)
     text = operating_point_text(rows)
-    assert text is not None and "6 of 6 events" in text and "(+3.0 %)" in text
+    assert text is not None and f"{len(read)} of 6 events" in text and "(+3.0 %)" in text

