@@ -53,7 +53,6 @@ spectral peak's error (1.0 % on a 3 s impact train at 21.33 Hz, an aliased harmo
 away)."""
 
 _PAD = 8  # zero padding: the peak bin within an eighth of a record's bin before refining
-_CANDIDATES = 1  # the strongest line only: folds at several lines chose aliases (below)
 
 
 class ExcitationLine(NamedTuple):
@@ -70,30 +69,26 @@ class ExcitationLine(NamedTuple):
     periodic: bool
 
 
-def _lines(a: np.ndarray, rate_hz: float, f_hz: float, span: float) -> list[float]:
-    """The :data:`_CANDIDATES` strongest spectral lines within ``f_hz (1 +- span)``, each
-    refined by a Gaussian through its neighbours (empty where the search holds fewer than
-    three bins)."""
+def _line(a: np.ndarray, rate_hz: float, f_hz: float, span: float) -> float:
+    """The strongest spectral line within ``f_hz (1 +- span)`` (its strongest peak inside
+    the search, else the largest bin), refined by a Gaussian through its neighbours; NaN
+    where the search holds fewer than three bins."""
     n = a.size
     spectrum = np.abs(np.fft.rfft((a - a.mean()) * np.hanning(n), _PAD * n))
     freqs = np.fft.rfftfreq(_PAD * n, 1.0 / rate_hz)
     inside = np.flatnonzero((freqs >= f_hz * (1 - span)) & (freqs <= f_hz * (1 + span)))
     if inside.size < 3:
-        return []
+        return math.nan
     s = spectrum[inside]
     peaks = [i for i in range(1, s.size - 1) if s[i] >= s[i - 1] and s[i] > s[i + 1]]
-    peaks = sorted(peaks, key=lambda i: -s[i])[:_CANDIDATES] or [int(np.argmax(s))]
-    out = []
-    for i in peaks:
-        k = int(inside[i])
-        if i in (0, s.size - 1) or spectrum[k] <= 0:
-            out.append(float(freqs[k]))  # at an end of the search: no neighbours
-            continue
-        lm, l0, lp = np.log(np.maximum(spectrum[k - 1:k + 2], 1e-300))
-        curvature = lm - 2 * l0 + lp
-        delta = 0.5 * (lm - lp) / curvature if curvature < 0 else 0.0
-        out.append(float(freqs[k] + delta * (freqs[1] - freqs[0])))
-    return out
+    i = max(peaks, key=lambda j: s[j]) if peaks else int(np.argmax(s))
+    k = int(inside[i])
+    if i in (0, s.size - 1) or spectrum[k] <= 0:
+        return float(freqs[k])  # at an end of the search: no neighbours
+    lm, l0, lp = np.log(np.maximum(spectrum[k - 1:k + 2], 1e-300))
+    curvature = lm - 2 * l0 + lp
+    delta = 0.5 * (lm - lp) / curvature if curvature < 0 else 0.0
+    return float(freqs[k] + delta * (freqs[1] - freqs[0]))
 
 
 def excitation_line(a_g: npt.ArrayLike, rate_hz: float, f_hz: float, *,
@@ -125,13 +120,11 @@ def excitation_line(a_g: npt.ArrayLike, rate_hz: float, f_hz: float, *,
     f_hz = finite_positive("f_hz", f_hz)
     if not 0 < span < 0.5:
         raise ValueError(f"span = {span!r} must lie in (0, 0.5)")
-    lines = _lines(a, rate_hz, f_hz, span)
-    if not lines:
+    line = _line(a, rate_hz, f_hz, span)
+    if not math.isfinite(line):
         return ExcitationLine(math.nan, math.nan, 0, False)
-    # period 2: the scan's own default, right for responses of period 1 and 2; of the
-    # candidate lines, the one whose fold explains most (every harmonic lines up there)
-    whole = max((fold(a, rate_hz, f, period=2, refine=FOLD_SPAN, block_s=block_s)
-                 for f in lines), key=lambda fo: fo.explained)
+    # period 2: the scan's own default, right for responses of period 1 and 2
+    whole = fold(a, rate_hz, line, period=2, refine=FOLD_SPAN, block_s=block_s)
     hz = whole.f_hz
     # the fold's explained variance, not its periodic flag: sampling nearly commensurate with
     # the excitation mixes a fold's bins poorly, and the line is still read to 2 / N
