@@ -127,7 +127,7 @@ def diagnose(
                   max_effects=max_effects, screen_top=screen_top, max_rms=max_rms,
                   noise_rms=noise_rms)
     _check_run(block_fraction, phases, scheduler)
-    cache_folder: str | bool = str(st.folder) if (st := default_cache(cache)) else False
+    cache_folder = _cache_folder(cache)
     say = reporter(progress)
     camp = load_any_campaign(campaign)
     keys = keys_for(list(candidates) if candidates is not None else None)
@@ -178,6 +178,12 @@ def diagnose(
             pairs=sel.pairs, review=reviewed, widened_nuisance=widened,
             widened_chosen=wider,
         )
+
+
+def _cache_folder(cache: ResultCache | str | os.PathLike[str] | bool | None) -> str | bool:
+    """The result cache's folder for the worker processes (False: no cache)."""
+    store = default_cache(cache)
+    return str(store.folder) if store is not None else False
 
 
 def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
