@@ -185,6 +185,40 @@ def test_criteria_without_campaigns_to_judge_are_not_applicable():
     assert status[blind.CRITERIA["false_alarms"]] == "PASS"
 
 
+def test_criteria_of_size_false_alarms_regret_and_coverage_at_their_limits():
+    """One false alarm passes among 10 null-like campaigns and fails among 9; regret within
+    the noise must hold in 95 % of the scored campaigns; coverage must lie in 90-98 %; the
+    benchmark must hold 40 campaigns, 12 of them independent."""
+    def run(n_null: int, alarms: int, failures: int, covered: int, independent: int) -> dict:
+        truth, res = {}, {}
+        for i in range(n_null):
+            name = f"n{i:02d}"
+            truth[name] = {**_truth("null"), "generator": ("independent" if i < independent
+                                                            else "vadsim")}
+            r = _result("unexplained" if i < alarms else "none", [], before=0.3, after=0.3,
+                        nuisance={"wob_scale": 1.0})
+            r["nuisance"]["wob_scale"]["interval"] = [0.9, 1.1] if i < covered else [1.2, 1.3]
+            r["regret"] = {"regret": 5.0, "noise": 1.0, "search_failure": i < failures}
+            res[name] = r
+        return {c["criterion"]: c for c in score(res, truth)["criteria"]}
+
+    crit = run(10, alarms=1, failures=0, covered=9, independent=3)
+    assert crit[blind.CRITERIA["false_alarms"]]["status"] == "PASS"
+    assert crit[blind.CRITERIA["regret"]]["status"] == "PASS"
+    assert crit[blind.CRITERIA["coverage"]]["status"] == "PASS"  # 90 %
+    assert crit[blind.CRITERIA["size"]]["status"] == "FAIL"
+    assert crit[blind.CRITERIA["size"]]["detail"] == (
+        "10 campaigns, 3 from the independent generator")
+    crit = run(9, alarms=1, failures=1, covered=9, independent=0)
+    assert crit[blind.CRITERIA["false_alarms"]]["status"] == "FAIL"
+    assert crit[blind.CRITERIA["regret"]]["status"] == "FAIL"  # 8 of 9 within the noise
+    assert crit[blind.CRITERIA["coverage"]]["status"] == "FAIL"  # 100 %: too wide
+    crit = run(40, alarms=0, failures=2, covered=37, independent=12)
+    assert crit[blind.CRITERIA["size"]]["status"] == "PASS"
+    assert crit[blind.CRITERIA["regret"]]["status"] == "PASS"  # 38 of 40 = 95 %
+    assert crit[blind.CRITERIA["coverage"]]["detail"] == "37 of 40 true values (92 %)"
+
+
 # --------------------------------------------------------------------------------- scenarios
 
 def test_default_classes_and_counts():
@@ -343,8 +377,9 @@ def test_benchmark_resumes_passes_diagnose_kwargs_and_writes_scores(tmp_path, mo
     assert list(sc["classes"]) == ["null", "nuisance_effect"]
     assert sc["classes"]["nuisance_effect"]["identification_rate"] == 0.0
     md = (tmp_path / "scores.md").read_text()
-    assert "**FAIL**: identification >= 80 % in every class" in md
-    assert "**PASS**: false alarms in at most 1 of 5 null campaigns" in md
+    assert "**FAIL**: identification >= 90 % in every class" in md
+    assert "**PASS**: false alarms in at most 1 of 10 null-like campaigns" in md
+    assert "**FAIL**: at least 40 campaigns" in md
     assert "Class `nuisance_effect`" in md and "anvil_friction (force=100)" in md
     assert json.loads((tmp_path / "scores.json").read_text())["overall"]["campaigns"] == 3
     sc = blind_benchmark(tmp_path, None, **kw)  # reuses 3 results, diagnoses the rc_bit one
