@@ -16,8 +16,9 @@ and the chosen model are evaluated with the diagnosis' own evaluator on every ev
   verdict says.
 
 The true model is the truth's candidates at their values, ``wob_scale`` as concealed (1 unless
-set) and ``theta0`` as concealed (the preset's value at rest unless set), with the default
-nuisance constants of a diagnosis. A negative regret is normal: the chosen model has fitted
+set) and ``theta0`` as concealed (the preset's value at rest unless set; for the independent
+generator, MODEL.md's phase at rest under the concealed WOB), with the default nuisance
+constants of a diagnosis. A negative regret is normal: the chosen model has fitted
 parameters and the truth has none.
 """
 
@@ -30,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from vadsim.blind.independent import rest_phase
 from vadsim.campaigns import campaign_preset, load_campaign
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES
@@ -59,7 +61,11 @@ def truth_point(truth: Mapping[str, Any], nuisance: tuple[NuisanceSpec, ...]
     hyp = Hypothesis(keys, nuisance)
     values = [float(t["values"][p.name]) for t in truth["truths"]
               for p in CANDIDATES[t["key"]].params]
-    concealed = truth.get("nuisance", {})
+    concealed = dict(truth.get("nuisance", {}))
+    if truth.get("generator") == "independent" and "theta0" not in concealed:
+        # its phase at rest follows the concealed WOB's static state (MODEL.md)
+        concealed["theta0"] = rest_phase(truth.get("preset", "7in-cde"),
+                                         concealed.get("wob_scale", 1.0)) % math.pi
     nuis = [float(concealed.get(s.name, s.null)) for s in nuisance]  # null: the preset's
     return hyp, hyp.round([*values, *nuis])
 

@@ -47,6 +47,27 @@ def test_truth_and_chosen_points_read_values_and_nuisance_by_name():
     assert hyp0.keys == () and point0 == hyp0.round([0.9, theta0])
 
 
+def test_an_independent_truth_carries_the_phase_at_rest_of_its_concealed_wob():
+    """The independent generator runs MODEL.md's phase at rest beta (x2 - x3) + psi, which a
+    lighter WOB moves by beta 0.1 wob / kOn (the on-bottom shoulder compresses less); vadsim's
+    preset holds its phase. The regret's truth point carries the generator's phase: at the
+    preset's WOB it is the preset's own."""
+    nuis = resolve_nuisance(tuple(DEFAULT_NUISANCE), RunSettings(get_preset("7in-cde")))
+    names = [s.name for s in nuis]
+    p = get_preset("7in-cde").params
+    at = {}
+    for wob in (1.0, 0.9):
+        truth = {"truths": [], "nuisance": {"wob_scale": wob} if wob != 1.0 else {},
+                 "generator": "independent", "preset": "7in-cde"}
+        hyp, point = truth_point(truth, nuis)
+        at[wob] = dict(zip(names, point[-len(names):], strict=True))["theta0"]
+    assert at[1.0] == pytest.approx(p["theta0"] % math.pi, abs=1e-5)  # points keep 6 digits
+    shift = p["beta"] * 0.1 * p["wob"] / p["kOn"]  # 0.0071 rad
+    assert at[0.9] - at[1.0] == pytest.approx(shift, abs=2e-5)
+    vadsim_truth = {"truths": [], "nuisance": {"wob_scale": 0.9}}
+    assert truth_point(vadsim_truth, nuis)[1][-1] == pytest.approx(at[1.0], abs=1e-5)
+
+
 def test_the_truth_itself_has_no_regret_and_none_on_an_effect_is_a_search_failure(
         friction_campaign):
     path, truth = friction_campaign

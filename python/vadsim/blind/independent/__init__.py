@@ -19,7 +19,13 @@ are written through :func:`write_campaign`.
 """
 
 from vadsim.blind.independent.effects import EFFECTS, build_effect, nearest_library
-from vadsim.blind.independent.model import PRESETS, IndependentModel, preset_params, run_summary
+from vadsim.blind.independent.model import (
+    PRESETS,
+    IndependentModel,
+    preset_params,
+    rest_phase,
+    run_summary,
+)
 from vadsim.blind.independent.recording import (
     IndependentSpec,
     analog_lowpass,
@@ -28,5 +34,6 @@ from vadsim.blind.independent.recording import (
 )
 
 __all__ = ["EFFECTS", "PRESETS", "IndependentModel", "IndependentSpec", "analog_lowpass",
-           "build_effect", "nearest_library", "preset_params", "record_event", "run_summary",
+           "build_effect", "nearest_library", "preset_params", "record_event", "rest_phase",
+           "run_summary",
            "write_campaign"]

@@ -29,7 +29,7 @@ from scipy.integrate import odeint
 from vadsim.data import table_2_1
 
 __all__ = ["G", "PRESETS", "SETTLE_BLOCK", "Effect", "IndependentModel", "ToolPreset",
-           "preset_params", "run_summary", "settle"]
+           "preset_params", "rest_phase", "run_summary", "settle"]
 
 G = 9.80665
 """Standard gravity (m/s^2): accelerations are recorded in g."""
@@ -78,6 +78,17 @@ def preset_params(name: str) -> dict[str, float]:
         table["m1"] = table["m1_RC"]
     table.pop("m1_RC", None)
     return {**table, "l0": pr.l0, "wob": pr.wob}
+
+
+def rest_phase(name: str, wob_scale: float = 1.0) -> float:
+    """The excitation phase at rest ``beta (x2 - x3) + psi`` (rad) this generator runs the
+    preset with at ``wob_scale`` times its WOB (MODEL.md's rest state).
+
+    Why: the phase follows the static state, which the WOB compresses; vadsim's presets hold
+    their phase at rest whatever the WOB. A concealed WOB off by 10 % moves it by 0.007 rad,
+    and the true model in vadsim's terms carries that phase (the regret's truth point)."""
+    m = IndependentModel(preset_params(name), 300.0, wob_scale=wob_scale)
+    return float(m.p["beta"] * (m.x_static[1] - m.x_static[2]) + m.p["psi"])
 
 
 def _kv(d: Any, rate: Any, k: float, c: float) -> Any:
