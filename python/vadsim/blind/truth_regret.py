@@ -61,7 +61,7 @@ def truth_point(truth: Mapping[str, Any], nuisance: tuple[NuisanceSpec, ...]
     hyp = Hypothesis(keys, nuisance)
     values = [float(t["values"][p.name]) for t in truth["truths"]
               for p in CANDIDATES[t["key"]].params]
-    concealed = dict(truth.get("nuisance", {}))
+    concealed: dict[str, Any] = dict(truth.get("nuisance", {}))
     if truth.get("generator") == "independent" and "theta0" not in concealed:
         # its phase at rest follows the concealed WOB's static state (MODEL.md)
         concealed["theta0"] = rest_phase(truth.get("preset", "7in-cde"),
