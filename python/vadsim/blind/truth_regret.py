@@ -66,7 +66,7 @@ def truth_point(truth: Mapping[str, Any], nuisance: tuple[NuisanceSpec, ...]
         # its phase at rest follows the concealed WOB's static state (MODEL.md)
         concealed["theta0"] = rest_phase(truth.get("preset", "7in-cde"),
                                          concealed.get("wob_scale", 1.0)) % math.pi
-    nuis = [float(concealed.get(s.name, s.null)) for s in nuisance]  # null: the preset's
+    nuis = [float(concealed.get(s.name, s.null or 0.0)) for s in nuisance]  # null: the preset's
     return hyp, hyp.round([*values, *nuis])
 
 
