@@ -131,10 +131,15 @@ def _verdict_sentence(diag: Diagnosis) -> str:
             "no candidate" + (" nor pair" if diag.pairs else "") + " passes the thresholds")
     if diag.chosen:
         what += edges_text(diag.chosen)
-    if diag.verdict == "explained":
-        return f"missing physics: {what}"
     where = "; ".join(f"{u['flow_gpm']:g} gal/min ({', '.join(u['worst'])})"
                       for u in diag.unexplained[:4])
+    if diag.verdict == "explained":
+        if noise is None or noise["within"]:
+            return f"missing physics: {what}"
+        return (f"missing physics: {what}; a remainder beyond the noise: RMS z "
+                f"{noise['rms']:.2f} on the campaign, above {noise['band']:.2f}, the "
+                f"{100 * noise['quantile']:g} % quantile of {noise['draws']} campaigns the "
+                f"final model writes itself" + (f"; worst at {where}" if where else ""))
     if diag.chosen is None and noise is not None and not noise["within"]:
         located = "; ".join(m.describe() for m in diag.located[:3])
         return (f"a mismatch beyond the noise that no candidate explains: the {which} base "

@@ -209,11 +209,13 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
 
 def _noise_check(ev: CampaignEvaluator, chosen: HypothesisFit | None, final: HypothesisFit,
                  pol: Policy, say: Callable[[str], None]) -> dict[str, Any] | None:
-    """Whether "none" lies within the noise (:func:`within_noise`), where nothing was chosen
-    and "none" holds out within ``max_rms``; None where that is not asked."""
-    if chosen is not None or final.heldout_rms > pol.max_rms or not pol.noise_draws:
+    """Whether the final model lies within the noise (:func:`within_noise`) where it holds
+    out within ``max_rms``: "none" is only given inside the band, and a chosen model above it
+    leaves a remainder the verdict names; None where that is not asked."""
+    if final.heldout_rms > pol.max_rms or not pol.noise_draws:
         return None
-    say(f"'none' against {pol.noise_draws} campaigns it writes itself")
+    which = "+".join(chosen.keys) if chosen is not None else "'none'"
+    say(f"{which} against {pol.noise_draws} campaigns it writes itself")
     return within_noise(final, rms_draws(ev, final.hypothesis.change(final.point),
                                          n_boot=pol.noise_draws), pol)
 

@@ -200,10 +200,10 @@ def vanishes_in_folds(fit: HypothesisFit) -> bool:
 
 def unexplained(final: HypothesisFit, flows: Mapping[str, float], policy: Policy,
                 noise: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
-    """Where a final model that does not explain the campaign misses: held out above
-    ``policy.max_rms``, the events whose own held-out RMS exceeds it; nothing chosen and
-    beyond the noise (``noise``: :func:`within_noise`), the events whose held-out RMS
-    exceeds the noise band; worst first. None where the final model explains the campaign."""
+    """Where the final model misses: held out above ``policy.max_rms``, the events whose own
+    held-out RMS exceeds it; beyond the noise (``noise``: :func:`within_noise`; "none" or a
+    chosen model with a remainder), the events whose held-out RMS exceeds the noise band;
+    worst first. Empty where the final model lies within the noise."""
     if final.heldout_rms > policy.max_rms:
         bar = policy.max_rms
     elif noise is not None and not noise["within"]:

@@ -61,10 +61,12 @@ class Diagnosis:
     """The pair step's joint probes (empty where it did not run): ``pair``, ``probe_rss``,
     ``single_rss`` (the best single probe's) and ``fitted`` (whether it earned a full fit)."""
     noise: dict[str, Any] | None = None
-    """Where nothing was chosen: whether "none" lies within the noise
-    (:func:`~vadsim.fit.diagnosis.policy.within_noise`: ``rms`` on the campaign, ``band``,
-    the ``quantile`` of ``draws`` campaigns the model wrote itself, their ``median``,
-    ``within``); None where effects were chosen or the bootstrap was off."""
+    """Whether the final model (the chosen one, or the base model "none" stands for) lies
+    within the noise (:func:`~vadsim.fit.diagnosis.policy.within_noise`: ``rms`` on the
+    campaign, ``band``, the ``quantile`` of ``draws`` campaigns the model wrote itself, their
+    ``median``, ``within``). With "none" it decides the verdict; with a chosen model, outside
+    the band is a remainder beyond the noise that the verdict's text names. None where the
+    final model holds out above ``max_rms`` or the bootstrap was off."""
     widened_nuisance: list[dict[str, Any]] = field(default_factory=list)
     """Nuisance constants whose calibration ended at a bound of their range, each with the
     range widened and the base model refitted (:func:`~vadsim.fit.nuisance.widen`):

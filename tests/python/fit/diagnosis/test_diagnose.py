@@ -621,6 +621,9 @@ def test_concealed_hydraulic_force_is_found_with_its_size(hydraulic_diagnosis):
     lo, hi = d.chosen.interval["f_ref"]
     assert lo <= v["f_ref"] <= hi
     assert d.chosen.heldout_rms <= 0.5 * d.baseline.heldout_rms
+    # the right model found leaves nothing beyond the noise, so the verdict names no remainder
+    assert d.noise is not None and d.noise["within"], d.noise
+    assert d.unexplained == [] and "remainder" not in d.verdict_text()
     # the nuisance constants are fitted with it, and land near the truth (nominal values). The
     # force's static part at these flows trades with WOB: measured 1.00, 1.075 on a core that
     # differed only in the last bits (reverted), 1.056 with the model measured with the

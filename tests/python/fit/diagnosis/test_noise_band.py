@@ -4,6 +4,7 @@ band of its RMS on campaigns it writes itself (a parametric bootstrap from its o
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -11,11 +12,12 @@ from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.bootstrap import rms_draws
 from vadsim.fit.candidates import CANDIDATES
-from vadsim.fit.diagnosis.policy import Policy, verdict, within_noise
+from vadsim.fit.diagnosis.policy import Policy, unexplained, verdict, within_noise
 from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.scoring import aicc
 from vadsim.model.change import ModelChange
 from vadsim.model.settings import RunSettings
+from vadsim.report.text import verdict_text
 
 FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
 SMALL = dict(cycles=160, analyse_cycles=100, duration_s=3.0, noise_g=0.3)
@@ -49,6 +51,40 @@ def test_none_is_given_inside_the_band_and_not_one_and_a_half_times_above_it():
     # effects chosen: the band does not decide; no bootstrap (None): max_rms alone
     assert verdict(above, above, pol, got) == "explained"
     assert verdict(None, above, pol, None) == "none"
+
+
+def test_an_explained_verdict_names_a_remainder_beyond_the_noise_and_where_it_is():
+    """A chosen model that holds out within max_rms but lies above the band of the campaigns
+    it writes itself is still "explained", and its verdict says what is left and where; one
+    inside its band says nothing more."""
+    pol = Policy()
+    draws = np.linspace(0.20, 0.40, 20)
+    band = float(np.quantile(draws, pol.noise_quantile))
+    base = _fit(3.0, heldout_rms=3.0)
+    chosen = HypothesisFit(keys=("hydraulic_force[anvil]",), nuisance_specs=(),
+                           point=(64.0, 2.0), k=4, intervals=[(60.0, 68.0), (1.9, 2.1)],
+                           rss=1.2 ** 2 * 400, n=400, heldout_rms=1.3, heldout_rms_lofo=1.3,
+                           heldout_rms_block=1.3, score=aicc(400, 1.3 ** 2, 4))
+    chosen.heldout = {"e1": {"x1_q99_g": 2.5, "x5_q99_g": 1.5}, "e2": {"x1_q99_g": 0.1}}
+    flows = {"e1": 500.0, "e2": 300.0}
+
+    def diag(noise: dict) -> SimpleNamespace:
+        return SimpleNamespace(
+            none_fit=base, uncalibrated=base, noise=noise, chosen=chosen, final=chosen,
+            verdict=verdict(chosen, chosen, pol, noise), settings={"max_rms": pol.max_rms},
+            unexplained=unexplained(chosen, flows, pol, noise), operating_point=[])
+
+    above = within_noise(chosen, draws, pol)
+    d = diag(above)
+    assert d.verdict == "explained" and not above["within"]
+    assert [u["event"] for u in d.unexplained] == ["e1"]  # e2 lies inside the band
+    text = verdict_text(d)
+    assert text.startswith("missing physics: hydraulic_force (f_ref=64, n=2)")
+    assert f"a remainder beyond the noise: RMS z 1.20 on the campaign, above {band:.2f}" in text
+    assert "worst at 500 gal/min (x1_q99_g, x5_q99_g)" in text
+    inside = within_noise(_fit(0.25), draws, pol)
+    d = diag(inside)
+    assert d.unexplained == [] and "remainder" not in verdict_text(d)
 
 
 def test_noise_band_options_are_refused_by_name():
