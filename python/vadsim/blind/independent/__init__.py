@@ -35,5 +35,4 @@ from vadsim.blind.independent.recording import (
 
 __all__ = ["EFFECTS", "PRESETS", "IndependentModel", "IndependentSpec", "analog_lowpass",
            "build_effect", "nearest_library", "preset_params", "record_event", "rest_phase",
-           "run_summary",
-           "write_campaign"]
+           "run_summary", "write_campaign"]
