@@ -49,7 +49,7 @@ from vadsim.blind.scenarios import (
     scenarios_of,
 )
 from vadsim.blind.scoring import CRITERIA, normalise_result, normalise_truth, score
-from vadsim.blind.truth_regret import regret, truth_is_library_point
+from vadsim.blind.truth_regret import regret, regret_of, truth_is_library_point
 from vadsim.campaigns import load_campaign, save_campaign
 from vadsim.campaigns.synthetic import synthetic_campaign
 from vadsim.compare import CampaignEvaluator
@@ -242,7 +242,9 @@ def _add_regrets(camp_dir: Path, res_dir: Path, results: dict[str, dict[str, Any
     for name, js in results.items():
         path = res_dir / f"{name}.regret.json"
         if path.is_file():
-            js["regret"] = json.loads(path.read_text())
+            kept = json.loads(path.read_text())
+            # the noise as defined now, from the costs kept (a file of an earlier definition)
+            js["regret"] = regret_of(kept["rss_truth"], kept["rss_chosen"], kept["n"])
             continue
         if not truth_is_library_point(truth[name]):
             js["regret"] = None  # n/a: no library point is the truth

@@ -6,9 +6,16 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 from vadsim.blind import Scenario, write_campaigns
-from vadsim.blind.truth_regret import NOISE_SIGMAS, chosen_point, regret, truth_point
+from vadsim.blind.truth_regret import (
+    NOISE_SIGMAS,
+    chosen_point,
+    regret,
+    regret_of,
+    truth_point,
+)
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, resolve_nuisance
 from vadsim.model.presets import get_preset
 from vadsim.model.settings import RunSettings
@@ -68,6 +75,25 @@ def test_an_independent_truth_carries_the_phase_at_rest_of_its_concealed_wob():
     assert truth_point(vadsim_truth, nuis)[1][-1] == pytest.approx(at[1.0], abs=1e-5)
 
 
+def test_the_noise_of_a_regret_scales_with_the_residuals_variance():
+    """n residuals of variance s^2 give an RSS that scatters by sqrt(2 n) s^2 (s^2 times a
+    chi-square of n degrees of freedom): measured on draws, and the regret's noise is two of
+    those, with s^2 from the better of the two models."""
+    rng = np.random.default_rng(3)
+    n, s = 700, 0.12  # the blind benchmark's size and residual scale
+    rss = np.sum((s * rng.standard_normal((4000, n))) ** 2, axis=1)
+    assert rss.std() == pytest.approx(math.sqrt(2 * n) * s ** 2, rel=0.05)
+    got = regret_of(float(rss[0]), float(rss[0]) + 3.0, n)
+    assert got["residual_variance"] == pytest.approx(rss[0] / n)
+    assert got["noise"] == pytest.approx(NOISE_SIGMAS * math.sqrt(2 * n) * rss[0] / n)
+    assert got["search_failure"]  # 3 is beyond 2 sqrt(2 n) s^2 = 1.07 here
+    assert not regret_of(float(rss[0]), float(rss[0]) + 0.5, n)["search_failure"]
+    # a truth whose run lands on another response: the chosen model's RSS sets the scale
+    assert regret_of(1383.0, 27.8, 709)["residual_variance"] == pytest.approx(27.8 / 709)
+    with pytest.raises(ValueError, match="n = 0"):
+        regret_of(1.0, 1.0, 0)
+
+
 def test_the_truth_itself_has_no_regret_and_none_on_an_effect_is_a_search_failure(
         friction_campaign):
     path, truth = friction_campaign
@@ -75,7 +101,9 @@ def test_the_truth_itself_has_no_regret_and_none_on_an_effect_is_a_search_failur
     at_truth = regret(path, truth, _result(["anvil_friction"],
                                            {"anvil_friction": {"force": 150.0}}, 1.1), **kw)
     assert at_truth["regret"] == 0.0 and not at_truth["search_failure"]
-    assert at_truth["noise"] == pytest.approx(NOISE_SIGMAS * math.sqrt(2 * at_truth["n"]))
+    s2 = at_truth["rss_truth"] / at_truth["n"]
+    assert at_truth["residual_variance"] == pytest.approx(s2)
+    assert at_truth["noise"] == pytest.approx(NOISE_SIGMAS * math.sqrt(2 * at_truth["n"]) * s2)
     assert at_truth["rms_truth"] < 1.5  # the recording noise alone
     missed = regret(path, truth, _result([], {}, 1.0), **kw)
     assert missed["rss_truth"] == pytest.approx(at_truth["rss_truth"])
