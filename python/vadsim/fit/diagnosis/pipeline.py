@@ -197,14 +197,17 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     review's records and the widenings. The reported model's intervals are walked out from
     its optimum (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`): the chosen
     model's, or where nothing is chosen the base model's (its constants are reported with
-    "none"); nothing else changes."""
+    "none"). An effect of two or more whose walked intervals hold its null is then dropped
+    (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`)."""
     eids = list(ctx.eids)
     chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                         if review else (sel.chosen, []))
     if chosen is None:
         return None, with_walked_intervals(ev, base, eids, say), reviewed, []
     chosen, widened = refit_widening(ctx, ev, coarse_ev, chosen, say)
-    return with_walked_intervals(ev, chosen, eids, say), base, reviewed, widened
+    chosen, dropped = selection.drop_null_effects(
+        ctx, ev, coarse_ev, with_walked_intervals(ev, chosen, eids, say), sel, say)
+    return chosen, base, [*reviewed, *dropped], widened
 
 
 def _noise_check(ev: CampaignEvaluator, chosen: HypothesisFit | None, final: HypothesisFit,

@@ -32,15 +32,17 @@ from vadsim.fit.diagnosis.policy import (
     needed,
     pair_passes,
     passes,
+    pinned_at_null,
     vanishes,
     vanishes_in_folds,
 )
-from vadsim.fit.hypothesis_fit import HypothesisFit
+from vadsim.fit.hypothesis_fit import HypothesisFit, with_walked_intervals
 from vadsim.fit.scoring import aicc
 
-__all__ = ["EARLY_PAIR_CUT", "Selection", "early_pair_promising", "every_single_fitted",
-           "forward_selection", "passing_pairs", "ranked", "refits_without", "replaced_by_a_pair",
-           "rescored", "review", "single_at_a_bound", "within_noise_pair"]
+__all__ = ["EARLY_PAIR_CUT", "Selection", "drop_null_effects", "early_pair_promising",
+           "every_single_fitted", "forward_selection", "passing_pairs", "ranked",
+           "refits_without", "replaced_by_a_pair", "rescored", "review", "single_at_a_bound",
+           "within_noise_pair"]
 
 @dataclass
 class Selection:
@@ -358,18 +360,41 @@ def review(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     return current, log
 
 
+def drop_null_effects(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
+                      fit: HypothesisFit, sel: Selection, say: Callable[[str], None]
+                      ) -> tuple[HypothesisFit, list[dict[str, Any]]]:
+    """``fit`` (with walked intervals) without the effects the recordings pin at their null
+    (:func:`~vadsim.fit.diagnosis.policy.pinned_at_null`), one at a time, each refit walked
+    again; and the review's records of the drops (``"why": "pinned at its null"``)."""
+    log: list[dict[str, Any]] = []
+    while spent := pinned_at_null(fit):
+        key = spent[0]
+        refit, = refits_without(ctx, ev, coarse_ev, fit, sel, say, only=(key,))
+        log.append({"action": "drop", "from": key, "to": None, "model": refit.key,
+                    "score": refit.score, "heldout_rms": refit.heldout_rms,
+                    "against": fit.score, "accepted": True,
+                    "why": "pinned at its null"})
+        say(f"review: {key}'s 95 % interval holds its null inside its range: absent, dropped "
+            f"(held-out RMS {refit.heldout_rms:.3f} without it, {fit.heldout_rms:.3f} with)")
+        fit = with_walked_intervals(ev, refit, list(ctx.eids), say)
+    return fit, log
+
+
 def refits_without(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
-                    current: HypothesisFit, sel: Selection,
-                    say: Callable[[str], None]) -> list[HypothesisFit]:
+                   current: HypothesisFit, sel: Selection,
+                   say: Callable[[str], None], only: Sequence[str] | None = None
+                   ) -> list[HypothesisFit]:
     """``current`` refitted without each of its effects, from its own values and, where
     selection fitted the same model before (a first-step single effect), from that fit's
     values too, the better of the two kept: started from the values the dropped effect left,
     a refit can stay in their basin (measured: a hydraulic force refitted from its pair with
     a contact law stopped at f_ref 43, n at its bound 3, held-out 0.81, where its own first-step
-    fit held out 0.22 at f_ref 68)."""
+    fit held out 0.22 at f_ref 68). ``only``: refitted without these effects alone, in
+    their order."""
     earlier = {f.keys: f for step in sel.steps for f in step if not f.probe and f.keys}
     jobs, owner = [], []
-    for i, key in enumerate(current.keys):
+    dropped = list(current.keys) if only is None else list(only)
+    for i, key in enumerate(dropped):
         hyp, start = without(current, key)
         jobs.append(Job(hyp, start, tuple(refit_stages(hyp))))
         owner.append(i)
@@ -377,10 +402,11 @@ def refits_without(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvalu
         if before is not None and before.hypothesis == hyp and before.point != start:
             jobs.append(Job(hyp, before.point, tuple(refit_stages(hyp))))
             owner.append(i)
-    say(f"review: {current.key} refitted without each of its {len(current.keys)} effects")
+    say(f"review: {current.key} refitted without " + (
+        f"each of its {len(dropped)} effects" if only is None else ", ".join(dropped)))
     fits = fit_all(ctx, jobs, ev, coarse_ev, say)
     best: dict[int, HypothesisFit] = {}
     for i, f in zip(owner, fits, strict=True):
         if i not in best or f.rss < best[i].rss:
             best[i] = f
-    return [best[i] for i in range(len(current.keys))]
+    return [best[i] for i in range(len(dropped))]

@@ -12,6 +12,7 @@ from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis import diagnose, search
 from vadsim.fit.diagnosis import selection as dmod
 from vadsim.fit.diagnosis.hypotheses import siblings, without
+from vadsim.fit.diagnosis.policy import pinned_at_null
 from vadsim.fit.hypothesis import Hypothesis
 from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.nuisance import DEFAULT_NUISANCE
@@ -177,3 +178,30 @@ def test_an_effect_not_needed_on_top_of_the_others_is_dropped_and_the_needed_one
     assert [r["from"] for r in drops if r["accepted"]] == ["contact_law"], d.summary()
     assert d.missing_physics == ["hydraulic_force"], d.summary()
     assert d.chosen.parameters["hydraulic_force"]["f_ref"] == pytest.approx(64.0, rel=0.2)
+
+
+def _pair_fit(on_bottom: tuple[float, float], single: bool = False) -> HypothesisFit:
+    """A contact law with an on-bottom stiffness factor beside it (blind-44's chosen pair)
+    and the intervals given; or the stiffness alone."""
+    keys = (("contact_stiffness[on_bottom]",) if single
+            else ("contact_law[impact]", "contact_stiffness[on_bottom]"))
+    ivs = ([] if single else [(0.997, 1.0016), (0.0761, 0.0767)]) + [on_bottom]
+    point = tuple(0.5 * (lo + hi) for lo, hi in ivs)
+    return HypothesisFit(keys=keys, nuisance_specs=(), point=point, k=len(point) + 2,
+                         intervals=ivs, rss=9.1, n=709, heldout_rms=0.16,
+                         heldout_rms_lofo=0.16, heldout_rms_block=0.16, score=-2000.0)
+
+
+def test_an_effect_pinned_at_its_null_is_measured_absent():
+    """An effect whose 95 % interval holds its null and lies inside its search range is
+    measured to be absent; one whose interval reaches an end of its range is merely not
+    pinned, and one away from its null is found. A single effect is left to the thresholds
+    that chose it."""
+    spec = CANDIDATES["contact_stiffness[on_bottom]"].params[0]
+    assert spec.null == 1.0 and spec.lo < 0.9 and spec.hi > 1.1
+    assert pinned_at_null(_pair_fit((0.995, 1.005))) == ["contact_stiffness[on_bottom]"]
+    assert pinned_at_null(_pair_fit((1.01, 1.05))) == []  # away from its null: found
+    assert pinned_at_null(_pair_fit((spec.lo, 1.005))) == []  # reaches its range: not pinned
+    assert pinned_at_null(_pair_fit((0.995, 1.005), single=True)) == []
+    # candidates without a null (the contact law) are never measured absent
+    assert "contact_law[impact]" not in pinned_at_null(_pair_fit((0.995, 1.005)))
