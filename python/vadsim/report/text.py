@@ -8,6 +8,8 @@ registered here when this module is imported.
 from __future__ import annotations
 
 import textwrap
+from collections.abc import Mapping
+from typing import Any
 
 from vadsim._html import grid_table, key_value_table
 from vadsim._render import register
@@ -121,9 +123,8 @@ def _verdict_sentence(diag: Diagnosis) -> str:
     which = "nominal" if diag.none_fit is diag.uncalibrated else "calibrated"
     noise = diag.noise
     if diag.verdict == "none":
-        within = (f"; RMS z {noise['rms']:.2f}, within the noise: at most "
-                  f"{noise['band']:.2f}, the {100 * noise['quantile']:g} % quantile of "
-                  f"{noise['draws']} campaigns it writes itself" if noise else "")
+        within = (f"; RMS z {noise['rms']:.2f}, within the noise: at most {_band(noise)}"
+                  if noise else "")
         return (f"missing physics: none (the {which} base model explains the campaign: "
                 f"held-out RMS {b:.2f} <= {diag.settings['max_rms']:g}{within})")
     what = (f"{' + '.join(diag.chosen.ids)} ({params_text(diag.chosen)}); held-out RMS "
@@ -137,19 +138,23 @@ def _verdict_sentence(diag: Diagnosis) -> str:
         if noise is None or noise["within"]:
             return f"missing physics: {what}"
         return (f"missing physics: {what}; a remainder beyond the noise: RMS z "
-                f"{noise['rms']:.2f} on the campaign, above {noise['band']:.2f}, the "
-                f"{100 * noise['quantile']:g} % quantile of {noise['draws']} campaigns the "
-                f"final model writes itself" + (f"; worst at {where}" if where else ""))
+                f"{noise['rms']:.2f} on the campaign, above {_band(noise, 'the final model')}"
+                + (f"; worst at {where}" if where else ""))
     if diag.chosen is None and noise is not None and not noise["within"]:
         located = "; ".join(m.describe() for m in diag.located[:3])
         return (f"a mismatch beyond the noise that no candidate explains: the {which} base "
-                f"model's RMS z {noise['rms']:.2f} on the campaign, above {noise['band']:.2f}, "
-                f"the {100 * noise['quantile']:g} % quantile of {noise['draws']} campaigns it "
-                f"writes itself (median {noise['median']:.2f}); held-out RMS "
+                f"model's RMS z {noise['rms']:.2f} on the campaign, above {_band(noise)} "
+                f"(median {noise['median']:.2f}); held-out RMS "
                 f"{b:.2f}" + (f"; worst at {where}" if where else "")
                 + (f"; located: {located}" if located else ""))
     return (f"unexplained mismatch at {where or 'several events'}: {what}; held-out RMS "
             f"{f:.2f} > {diag.settings['max_rms']:g}")
+
+
+def _band(noise: Mapping[str, Any], writer: str = "it") -> str:
+    """The noise band as the verdict reads it: its edge and what it is the quantile of."""
+    return (f"{noise['band']:.2f}, the {100 * noise['quantile']:g} % quantile of "
+            f"{noise['draws']} campaigns {writer} writes itself")
 
 
 def diagnosis_html(diag: Diagnosis) -> str:

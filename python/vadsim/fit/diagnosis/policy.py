@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from vadsim.fit.candidates import CANDIDATES
+from vadsim.fit.candidates import CANDIDATES, ParamSpec
 from vadsim.fit.hypothesis_fit import HypothesisFit
 
 __all__ = ["VERDICTS", "Policy", "any_vanishes", "at_null", "needed", "none_model",
@@ -214,7 +214,7 @@ def pinned_at_null(fit: HypothesisFit) -> list[str]:
     return out
 
 
-def _pins(interval: tuple[float, float], spec: Any, null: float) -> bool:
+def _pins(interval: tuple[float, float], spec: ParamSpec, null: float) -> bool:
     lo, hi = interval
     return bool(lo <= null <= hi and spec.lo < lo and hi < spec.hi)
 
