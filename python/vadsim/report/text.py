@@ -92,7 +92,8 @@ def diagnosis_summary(diag: Diagnosis) -> str:
                 f"without {r['from']}")
         lines.append(f"review: {what} -> {r['model']}: held-out RMS {r['heldout_rms']:.3f}, "
                      f"score {r['score']:.1f} against {r['against']:.1f}"
-                     + (" (accepted)" if r["accepted"] else ""))
+                     + (" (accepted)" if r["accepted"] else "")
+                     + (f": {r['why']}" if r.get("why") else ""))
     lines.append(verdict_text(diag))
     if diag.prediction:
         p = diag.prediction

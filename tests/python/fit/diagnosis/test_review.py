@@ -205,3 +205,71 @@ def test_an_effect_pinned_at_its_null_is_measured_absent():
     assert pinned_at_null(_pair_fit((0.995, 1.005), single=True)) == []
     # candidates without a null (the contact law) are never measured absent
     assert "contact_law[impact]" not in pinned_at_null(_pair_fit((0.995, 1.005)))
+
+
+def test_a_remainder_beyond_the_noise_sends_every_candidate_not_fitted_to_a_full_fit(
+        monkeypatch):
+    """blind-36: the excitation force 1.25 times the written one; the amplitude's probe saw
+    no gain and an on-bottom contact stiffness was chosen instead, leaving a remainder far
+    beyond the noise. Forward selection is held to the stiffness here (as its probes held
+    it there); the remainder then sends the amplitude to a full fit, which passes against
+    the stiffness and replaces it, at the written factor."""
+    camp = synthetic_campaign("7in-cde", FLOWS, seed=36, **SMALL,
+                              change=_truth("excitation_amplitude", {"factor": 1.25, "p": 0.0}))
+    _forced(monkeypatch, keys=["contact_stiffness[on_bottom]"])
+    said: list[str] = []
+    d = diagnose(camp, candidates=["contact_stiffness[on_bottom]", "excitation_amplitude"],
+                 **{**RUN, "progress": said.append})
+    assert any("leaves a remainder beyond the noise" in s for s in said), said
+    assert d.chosen is not None and d.chosen.keys == ("excitation_amplitude",), d.summary()
+    assert d.chosen.values["factor"] == pytest.approx(1.25, rel=0.05), d.summary()
+    swap, = (r for r in d.review if r.get("why", "").startswith("a remainder"))
+    assert swap["to"] == "excitation_amplitude" and swap["accepted"]
+    assert swap["from"] in ("none", "contact_stiffness[on_bottom]")
+    assert "excitation_amplitude" in {f.key for f in d.ranking if not f.probe}
+    assert d.verdict == "explained"
+
+
+def test_a_remainder_no_candidate_passes_against_leaves_the_model_as_it_was(monkeypatch):
+    """Candidates fitted for a remainder that do not pass against the final model (the
+    usual thresholds) change nothing; every candidate a step fitted fully, or that the model
+    holds, is not fitted again."""
+    from vadsim.fit.diagnosis.policy import Policy
+    from vadsim.fit.scoring import aicc
+
+    away = {"contact_stiffness[on_bottom]": (1.3,), "excitation_amplitude": (1.25, 0.2)}
+
+    def fit(keys, heldout, rss, probe=False):
+        point = tuple(v for k in keys for v in away[k])
+        f = replace(_fit(keys, point), heldout_rms=heldout,
+                    heldout_rms_lofo=heldout, heldout_rms_block=heldout, rss=rss, probe=probe,
+                    n_heldout=500)
+        return replace(f, score=aicc(500, heldout ** 2, f.k))
+
+    base = fit((), 4.0, 8000.0)
+    chosen = fit(("contact_stiffness[on_bottom]",), 1.8, 2000.0)
+    probed = fit(("excitation_amplitude",), 3.9, 7900.0, probe=True)
+    sel = dmod.Selection(steps=[[chosen, probed]], chosen=chosen)
+    asked: list[list[str]] = []
+    for found, replaced in ((fit(("excitation_amplitude",), 1.5, 1900.0), False),
+                            (fit(("excitation_amplitude",), 0.2, 60.0), True)):
+        def fit_all(ctx, jobs, ev, cev, say, tick=None, found=found):
+            asked.append([j.hyp.keys[-1] for j in jobs])
+            return [found for _ in jobs]
+
+        monkeypatch.setattr(dmod, "fit_all", fit_all)
+        monkeypatch.setattr(dmod, "job", lambda current, key: type("J", (), {
+            "hyp": Hypothesis((key,))})())
+        got = dmod.remainder_search(None, None, None, replace(sel, steps=[[chosen, probed]]),
+                                    base, chosen, ["contact_stiffness[on_bottom]",
+                                                   "excitation_amplitude"], Policy(),
+                                    lambda _m: None, lambda *_a: None)
+        assert (got is found) == replaced
+    assert asked == [["excitation_amplitude"]] * 2
+    # nothing left to fit: no fit at all
+    done = dmod.Selection(steps=[[chosen, fit(("excitation_amplitude",), 3.9, 7900.0)]],
+                          chosen=chosen)
+    assert dmod.remainder_search(None, None, None, done, base, chosen,
+                                 ["contact_stiffness[on_bottom]", "excitation_amplitude"],
+                                 Policy(), lambda _m: None, lambda *_a: None) is None
+    assert len(asked) == 2
