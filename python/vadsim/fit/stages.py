@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from scipy import optimize
@@ -26,7 +26,8 @@ from vadsim.fit.nuisance import NuisanceSpec
 if TYPE_CHECKING:
     from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts, Point
 
-__all__ = ["COARSE_SEEDS", "REFINE_GAIN", "REFINE_ROUNDS", "Stage", "grid_points", "refine",
+__all__ = ["COARSE_SEEDS", "ISLAND_CAP", "REFINE_GAIN", "REFINE_ROUNDS", "CappedCosts",
+           "PointCost", "Stage", "capped_refine", "grid_points", "refine",
            "run_stages"]
 
 
@@ -74,7 +75,16 @@ def grid_points(hyp: Hypothesis, start: Point, free: Sequence[int],
     return list(out)
 
 
-def refine(costs: HypothesisCosts, start: Point, free: Sequence[int], maxfev: int
+class PointCost(Protocol):
+    """What :func:`refine` walks: a hypothesis and a training cost at each of its points
+    (:class:`~vadsim.fit.hypothesis.HypothesisCosts`, or :class:`CappedCosts`)."""
+
+    hyp: Hypothesis
+
+    def rss(self, point: Point) -> float: ...
+
+
+def refine(costs: PointCost, start: Point, free: Sequence[int], maxfev: int
            ) -> tuple[float, Point]:
     """Local refinement of ``free`` coordinates from ``start``: bounded Brent within one grid
     step along a single non-periodic coordinate, Nelder-Mead (wrapping periodic ones)
@@ -207,3 +217,41 @@ def run_stages(costs: HypothesisCosts, hyp: Hypothesis, start: Point,
             if r < best_rss:
                 best_rss, best = r, p
     return best_rss, best
+
+
+ISLAND_CAP = 3.0
+"""Each event's training cost is capped at this many times its cost at the start (or the
+median event's, whichever is larger) in :func:`capped_refine`."""
+
+
+class CappedCosts:
+    """A hypothesis' training cost with each event's part capped (``caps``): an event that
+    lands on another response (thousands of spreads at one event where the others move by
+    a few) counts as a bounded miss, so the cost of the rest guides the walk across it."""
+
+    def __init__(self, costs: HypothesisCosts, caps: np.ndarray) -> None:
+        self.costs, self.hyp, self.caps = costs, costs.hyp, np.asarray(caps, dtype=float)
+
+    def rss(self, point: Point) -> float:
+        return float(np.minimum(self.costs.event_rss([point])[0], self.caps).sum())
+
+
+def capped_refine(costs: HypothesisCosts, start: Point, maxfev: int,
+                  cap: float = ISLAND_CAP) -> tuple[float, Point]:
+    """Nelder-Mead over every coordinate from ``start`` on the capped cost
+    (:class:`CappedCosts`, each event at most ``cap`` times its start's cost, or the median
+    event's), then locally on the true cost from where it ended: the (true rss, point)
+    reached, which may be worse than the start's (the caller keeps the better).
+
+    Why: the model is multistable, and near a regime boundary one event's response flips
+    with a fraction of a per cent of WOB, so the cost is a set of islands each a local
+    minimum. Measured on blind-11 of the 44-campaign benchmark (an impact-face stiffness
+    x2.5): the chosen point cost 45.3, fine profiles and Nelder-Mead around it found nothing
+    better, a 32-point Sobol design in twice its intervals nothing below 116; on the cost
+    capped at 3 times each event's, Nelder-Mead walked to a point costing 17.0 (the truth
+    17.1): across the ridges the other nine events' cost led it."""
+    every = range(len(costs.hyp.specs))
+    per_event = costs.event_rss([start])[0]
+    caps = cap * np.maximum(per_event, float(np.median(per_event)))
+    _, point = refine(CappedCosts(costs, caps), start, every, maxfev)
+    return refine(costs, point, every, maxfev // 4 or 1)

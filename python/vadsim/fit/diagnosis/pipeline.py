@@ -31,7 +31,12 @@ from vadsim.fit.diagnosis.evidence import (
     probe_subset,
     rms_of,
 )
-from vadsim.fit.diagnosis.hypotheses import calibrate_widening, densify, refit_widening
+from vadsim.fit.diagnosis.hypotheses import (
+    calibrate_widening,
+    densify,
+    island_hop,
+    refit_widening,
+)
 from vadsim.fit.diagnosis.parallel import Tick, bar_tick, on_bar
 from vadsim.fit.diagnosis.policy import (
     Policy,
@@ -202,7 +207,8 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                         if review else (sel.chosen, []))
     if chosen is None:
-        return None, with_walked_intervals(ev, base, list(ctx.eids), say), reviewed, []
+        hopped = island_hop(ctx, ev, coarse_ev, base, say)
+        return None, with_walked_intervals(ev, hopped, list(ctx.eids), say), reviewed, []
     chosen, dropped, widened = _settled(ctx, ev, coarse_ev, sel, chosen, say)
     return chosen, base, [*reviewed, *dropped], widened
 
@@ -257,11 +263,14 @@ def _settled(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
              sel: selection.Selection, chosen: HypothesisFit, say: Callable[[str], None]
              ) -> tuple[HypothesisFit, list[dict[str, Any]], list[dict[str, Any]]]:
     """A model to report: refitted over the ranges it asks for
-    (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`), its intervals walked
+    (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`), moved to a better island of
+    its cost where there is one (:func:`~vadsim.fit.diagnosis.hypotheses.island_hop`), its
+    intervals walked
     (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`) and the effects pinned at
     their null dropped (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`); with
     the drops and the widenings."""
     chosen, widened = refit_widening(ctx, ev, coarse_ev, chosen, say)
+    chosen = island_hop(ctx, ev, coarse_ev, chosen, say)
     chosen, dropped = selection.drop_null_effects(
         ctx, ev, coarse_ev, with_walked_intervals(ev, chosen, list(ctx.eids), say), sel, say)
     return chosen, dropped, widened
