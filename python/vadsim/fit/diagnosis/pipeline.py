@@ -169,8 +169,7 @@ def diagnose(
         if acted is not None:  # the widenings reported are the reported model's own
             final = chosen = acted[0]
             reviewed, wider, noise = [*reviewed, *acted[1]], acted[2], acted[3]
-        baseline_sim = {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values),
-                                    strict=True)) for e in eids}
+        baseline_sim = _baseline_sim(ev, base, base_eval, eids)
         return Diagnosis(
             campaign=camp, preset=settings.preset, located=found,
             located_events=found_events, uncalibrated=plain, baseline=base, steps=sel.steps,
@@ -211,6 +210,17 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
         return None, with_walked_intervals(ev, hopped, list(ctx.eids), say), reviewed, []
     chosen, dropped, widened = _settled(ctx, ev, coarse_ev, sel, chosen, say)
     return chosen, base, [*reviewed, *dropped], widened
+
+
+def _baseline_sim(ev: CampaignEvaluator, base: HypothesisFit, base_eval: Mapping[Any, Any],
+                  eids: list[str]) -> dict[str, dict[str, float]]:
+    """The calibrated base model's simulated features per event, at its reported point
+    (evaluated again where :func:`~vadsim.fit.diagnosis.hypotheses.island_hop` moved it
+    from the point the location step evaluated)."""
+    if any((base.point, e) not in base_eval for e in eids):
+        base_eval = HypothesisCosts(ev, base.hypothesis, eids).evaluate([base.point])
+    return {e: dict(zip(ev.keys[e], map(float, base_eval[(base.point, e)].values), strict=True))
+            for e in eids}
 
 
 def _settings_record(settings: RunSettings, phases: int, block_fraction: float, review: bool,
@@ -265,10 +275,10 @@ def _settled(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     """A model to report: refitted over the ranges it asks for
     (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`), moved to a better island of
     its cost where there is one (:func:`~vadsim.fit.diagnosis.hypotheses.island_hop`), its
-    intervals walked
-    (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`) and the effects pinned at
-    their null dropped (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`); with
-    the drops and the widenings."""
+    intervals walked (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`) and the
+    effects pinned at their null dropped
+    (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`); with the drops and the
+    widenings."""
     chosen, widened = refit_widening(ctx, ev, coarse_ev, chosen, say)
     chosen = island_hop(ctx, ev, coarse_ev, chosen, say)
     chosen, dropped = selection.drop_null_effects(
