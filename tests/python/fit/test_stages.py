@@ -21,10 +21,9 @@ class Landscape:
     (5,000 spreads) in a band of the first coordinate between the start and TARGET."""
 
     def __init__(self, band: tuple[float, float] = (0.45, 0.6)) -> None:
-        self.hyp, self.band, self.evaluated = HYP, band, 0
+        self.hyp, self.band = HYP, band
 
     def event_rss(self, points):
-        self.evaluated += len(points)
         rows = []
         for p in points:
             u = HYP.unit(p)

@@ -201,7 +201,9 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     review's records and the widenings. The reported model's intervals are walked out from
     its optimum (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`): the chosen
     model's, or where nothing is chosen the base model's (its constants are reported with
-    "none"). An effect of two or more whose walked intervals hold its null is then dropped
+    "none"), each first moved to a better island of its cost where there is one
+    (:func:`~vadsim.fit.diagnosis.hypotheses.island_hop`). An effect of two or more whose
+    walked intervals hold its null is then dropped
     (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`)."""
     chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                         if review else (sel.chosen, []))
