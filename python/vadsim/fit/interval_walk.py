@@ -31,7 +31,7 @@ from vadsim.fit.nuisance import NuisanceSpec
 if TYPE_CHECKING:
     from vadsim.fit.hypothesis import HypothesisCosts, Point
 
-__all__ = ["WALK_BISECTIONS", "WALK_FIRST_STEP", "walk_intervals"]
+__all__ = ["WALK_BISECTIONS", "WALK_FIRST_STEP", "hull_of_points", "walk_intervals"]
 
 WALK_FIRST_STEP = 1.0 / 1024.0
 """The shortest first step of a walker in the search box's unit coordinates; otherwise it
@@ -151,11 +151,20 @@ def walk_intervals(costs: HypothesisCosts, best: Point, intervals: Sequence[tupl
             if inside:
                 inside_points.append(pt)
             w.advance(inside, edge)
+    return hull_of_points(specs, best, intervals, inside_points)
+
+
+def hull_of_points(specs: Sequence[object], best: Point,
+                   intervals: Sequence[tuple[float, float]], points: Sequence[Point]
+                   ) -> list[tuple[float, float]]:
+    """Per coordinate, the hull of its interval and the values of ``points`` (periodic
+    constants unwrapped around ``best``, as the jackknife reports them)."""
     out = []
     for j, (lo, hi) in enumerate(intervals):
-        vals = [float(pt[j]) for pt in inside_points]
-        if periodic[j]:  # unwrapped around the best, as the jackknife reports it
-            span = specs[j].hi - specs[j].lo
+        vals = [float(pt[j]) for pt in points]
+        spec = specs[j]
+        if isinstance(spec, NuisanceSpec) and spec.periodic:
+            span = spec.hi - spec.lo
             vals = [float(best[j]) + ((v - float(best[j]) + 0.5 * span) % span) - 0.5 * span
                     for v in vals]
         out.append((min([lo, *vals]), max([hi, *vals])))
