@@ -182,6 +182,11 @@ def _add_diagnose(sub: Subparsers, parents: Parents) -> None:
                     help="campaigns the base model writes itself before 'none' is given: "
                     "'none' only up to the 97.5 %% quantile of their RMS z, the upper edge of "
                     "their 95 %% band (20; 0: on --max-rms alone)")
+    dg.add_argument("--intervals", choices=("profile", "walk", "search"), default="profile",
+                    help="how far the reported model's 95 %% intervals are searched with new "
+                    "runs: 'profile' (default) walks out from the optimum and follows the "
+                    "profile across islands of the cost, 'walk' only walks, 'search' reads the "
+                    "search's own points (no new run; narrowest)")
     dg.add_argument("--no-review", action="store_true",
                     help="skip the review of the chosen model (each effect refitted as its "
                     "variants, and each one not needed on top of the others dropped)")
@@ -289,7 +294,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                     analyse_cycles=args.analyse, phases=args.phases,
                     min_delta=args.min_delta, min_reduction=args.min_reduction,
                     max_effects=args.max_effects, max_rms=args.max_rms,
-                    policy=Policy(noise_draws=args.noise_draws),
+                    policy=Policy(noise_draws=args.noise_draws,
+                                  interval_search=args.intervals),
                     review=not args.no_review, workers=args.workers,
                     progress=not args.quiet, cache=args.cache, scheduler=args.scheduler)
     if args.predict:

@@ -14,7 +14,7 @@ returns a :class:`HypothesisFit`:
 * **interval** (:mod:`vadsim.fit.intervals`): per parameter, the wider of a 95 % profile
   interval from every point evaluated on all events and a delete-one-flow jackknife interval
   from the leave-one-flow-out folds' refits; a model that is reported has its intervals
-  walked out from its optimum too (:func:`with_walked_intervals`);
+  walked out from its optimum and along its profile too (:func:`with_walked_intervals`);
 * **held-out score** (:mod:`vadsim.fit.scoring`): each fold refitted among the points
   evaluated on every event and its held-out events predicted at the *predictive* cost; the
   error is the RMS standardised residual pooled over all held-out predictions, and the score
@@ -36,6 +36,7 @@ import numpy as np
 from vadsim.compare import CampaignEvaluator
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.hypothesis import Fold, Hypothesis, HypothesisCosts, Point
+from vadsim.fit.interval_profile import profile_intervals
 from vadsim.fit.interval_walk import walk_intervals
 from vadsim.fit.intervals import fold_estimates, jackknife_interval, profile_interval, widest
 from vadsim.fit.nuisance import NuisanceSpec
@@ -263,19 +264,29 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
 
 
 def with_walked_intervals(ev: CampaignEvaluator, fit: HypothesisFit, eids: list[str],
-                          progress: Callable[[str], None] = lambda _m: None) -> HypothesisFit:
+                          progress: Callable[[str], None] = lambda _m: None,
+                          search: str = "profile") -> HypothesisFit:
     """``fit`` with its intervals widened by walking the cost out from its optimum on every
-    event (:func:`vadsim.fit.interval_walk.walk_intervals`); the rest unchanged.
+    event (:func:`vadsim.fit.interval_walk.walk_intervals`) and, with ``search="profile"``,
+    by following its profile across islands
+    (:func:`vadsim.fit.interval_profile.profile_intervals`); ``search="search"`` returns
+    ``fit`` as it is. The rest unchanged.
 
-    Why only for a reported model: the walk runs new points (tens per coordinate), and only
-    the model a diagnosis reports has its intervals read."""
+    Why only for a reported model: the walk runs new points (tens per coordinate), the
+    profile hundreds, and only the model a diagnosis reports has its intervals read."""
     hyp = fit.hypothesis
-    if not hyp.specs or not fit.point_rss:
+    if not hyp.specs or not fit.point_rss or search == "search":
         return fit
     n0 = ev.n_evals
-    intervals = walk_intervals(HypothesisCosts(ev, hyp, eids), fit.point, fit.intervals,
-                               list(fit.point_rss), np.array(list(fit.point_rss.values())),
-                               len(eids))
+    costs = HypothesisCosts(ev, hyp, eids)
+    intervals = walk_intervals(costs, fit.point, fit.intervals, list(fit.point_rss),
+                               np.array(list(fit.point_rss.values())), len(eids))
+    per_point = max(len(eids), 1)
     progress(f"{fit.key}: intervals walked out from the optimum "
-             f"({(ev.n_evals - n0) // max(len(eids), 1)} points)")
+             f"({(ev.n_evals - n0) // per_point} points)")
+    if search == "profile" and len(hyp.specs) > 1:
+        n1 = ev.n_evals
+        intervals = profile_intervals(costs, fit.point, intervals, fit.rss, len(eids))
+        progress(f"{fit.key}: intervals followed along the profile across islands "
+                 f"({(ev.n_evals - n1) // per_point} points)")
     return replace(fit, intervals=intervals, n_evals=fit.n_evals + ev.n_evals - n0)

@@ -124,3 +124,14 @@ def test_the_profile_costs_a_bounded_number_of_points():
     per_step = PROFILE_MAXFEV_PER_COORD + 2 + 3
     assert costs.asked <= 1 + 4 * (PROFILE_STEPS + PROFILE_BISECTIONS) * per_step
 
+
+def test_the_interval_search_is_refused_by_name_and_recorded():
+    import pytest
+    from vadsim.fit.diagnosis.policy import INTERVAL_SEARCHES, Policy
+
+    for bad in ("quick", "", None, 1):
+        with pytest.raises(ValueError, match="interval_search"):
+            Policy(interval_search=bad)  # type: ignore[arg-type]
+    for ok in INTERVAL_SEARCHES:
+        assert Policy(interval_search=ok).as_dict()["interval_search"] == ok
+    assert Policy().interval_search == "profile"

@@ -209,8 +209,10 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
                         if review else (sel.chosen, []))
     if chosen is None:
         hopped = island_hop(ctx, ev, coarse_ev, base, say)
-        return None, with_walked_intervals(ev, hopped, list(ctx.eids), say), reviewed, []
-    chosen, dropped, widened = _settled(ctx, ev, coarse_ev, sel, chosen, say)
+        return (None, with_walked_intervals(ev, hopped, list(ctx.eids), say,
+                                            pol.interval_search), reviewed, [])
+    chosen, dropped, widened = _settled(ctx, ev, coarse_ev, sel, chosen, say,
+                                        pol.interval_search)
     return chosen, base, [*reviewed, *dropped], widened
 
 
@@ -266,25 +268,29 @@ def _remainder(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator
     if better is None:
         return None
     chosen, dropped, wider = _settled(ctx, ev, coarse_ev, sel,
-                                      densify(ctx, ev, coarse_ev, better, say), say)
+                                      densify(ctx, ev, coarse_ev, better, say), say,
+                                      pol.interval_search)
     return (chosen, [_replacement(final, chosen), *dropped], wider,
             _noise_check(ev, chosen, chosen, pol, say))
 
 
 def _settled(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
-             sel: selection.Selection, chosen: HypothesisFit, say: Callable[[str], None]
+             sel: selection.Selection, chosen: HypothesisFit, say: Callable[[str], None],
+             interval_search: str
              ) -> tuple[HypothesisFit, list[dict[str, Any]], list[dict[str, Any]]]:
     """A model to report: refitted over the ranges it asks for
     (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`), moved to a better island of
     its cost where there is one (:func:`~vadsim.fit.diagnosis.hypotheses.island_hop`), its
-    intervals walked (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`) and the
+    intervals searched as ``interval_search`` says
+    (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`) and the
     effects pinned at their null dropped
     (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`); with the drops and the
     widenings."""
     chosen, widened = refit_widening(ctx, ev, coarse_ev, chosen, say)
     chosen = island_hop(ctx, ev, coarse_ev, chosen, say)
     chosen, dropped = selection.drop_null_effects(
-        ctx, ev, coarse_ev, with_walked_intervals(ev, chosen, list(ctx.eids), say), sel, say)
+        ctx, ev, coarse_ev, with_walked_intervals(ev, chosen, list(ctx.eids), say,
+                                                  interval_search), sel, say, interval_search)
     return chosen, dropped, widened
 
 

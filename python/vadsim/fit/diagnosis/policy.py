@@ -18,12 +18,15 @@ import numpy as np
 from vadsim.fit.candidates import CANDIDATES, ParamSpec
 from vadsim.fit.hypothesis_fit import HypothesisFit
 
-__all__ = ["VERDICTS", "Policy", "any_vanishes", "at_null", "needed", "none_model",
-           "pair_passes", "pinned_at_null", "passes", "unexplained", "vanishes",
+__all__ = ["INTERVAL_SEARCHES", "VERDICTS", "Policy", "any_vanishes", "at_null", "needed",
+           "none_model", "pair_passes", "pinned_at_null", "passes", "unexplained", "vanishes",
            "vanishes_in_folds", "verdict", "within_noise"]
 
 VERDICTS = ("none", "explained", "unexplained")
 """What a diagnosis can conclude (:func:`verdict`)."""
+
+INTERVAL_SEARCHES = ("profile", "walk", "search")
+"""How far a reported model's intervals are searched (:attr:`Policy.interval_search`)."""
 
 
 @dataclass(frozen=True)
@@ -63,6 +66,13 @@ class Policy:
         campaigns it writes; above it, "unexplained" (a mismatch beyond the noise). 0.975:
         the upper edge of their central 95 % band (below the band is no mismatch: a fit
         closer than the noise allows).
+    interval_search : str
+        How far the reported model's 95 % intervals are searched with new runs (they decide
+        :func:`pinned_at_null` too): ``"profile"`` walks the cost out from the optimum and
+        then follows its profile across islands
+        (:func:`~vadsim.fit.interval_profile.profile_intervals`); ``"walk"`` only walks
+        (:func:`~vadsim.fit.interval_walk.walk_intervals`); ``"search"`` reads the points the
+        search evaluated and the jackknife, with no new run (narrowest, fastest).
     """
 
     min_delta: float = 10.0
@@ -74,6 +84,7 @@ class Policy:
     review_min_cut: float = 0.1
     noise_draws: int = 20
     noise_quantile: float = 0.975
+    interval_search: str = "profile"
 
     def __post_init__(self) -> None:
         if not (_number(self.min_delta) and math.isfinite(self.min_delta)):
@@ -99,6 +110,9 @@ class Policy:
                              "an integer >= 2")
         if not (_number(self.noise_quantile) and 0.5 <= self.noise_quantile < 1.0):
             raise ValueError(f"noise_quantile = {self.noise_quantile!r} must be in [0.5, 1)")
+        if self.interval_search not in INTERVAL_SEARCHES:
+            raise ValueError(f"interval_search = {self.interval_search!r} must be one of "
+                             f"{', '.join(map(repr, INTERVAL_SEARCHES))}")
 
     def as_dict(self) -> dict[str, Any]:
         """The thresholds by name (a report's ``thresholds``)."""
@@ -106,7 +120,7 @@ class Policy:
                 "max_rms": self.max_rms, "noise_rms": self.noise_rms,
                 "max_effects": self.max_effects, "screen_top": self.screen_top,
                 "review_min_cut": self.review_min_cut, "noise_draws": self.noise_draws,
-                "noise_quantile": self.noise_quantile}
+                "noise_quantile": self.noise_quantile, "interval_search": self.interval_search}
 
 
 def _number(v: Any) -> bool:

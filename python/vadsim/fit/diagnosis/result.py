@@ -134,6 +134,7 @@ class Diagnosis:
             "intervals": {i: {k: list(v) for k, v in d.items()} for i, d in cand_iv.items()},
             "nuisance": {k: {"value": v, "interval": list(nuis_iv.get(k, (v, v)))}
                          for k, v in nuisance.items()},
+            "interval_search": self.settings.get("interval_search", "walk"),
             "unexplained": self.unexplained,
             "located": [m.as_dict() for m in self.located],
             "located_events": self.located_events,

@@ -404,11 +404,13 @@ def review(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
 
 
 def drop_null_effects(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
-                      fit: HypothesisFit, sel: Selection, say: Callable[[str], None]
+                      fit: HypothesisFit, sel: Selection, say: Callable[[str], None],
+                      interval_search: str = "profile"
                       ) -> tuple[HypothesisFit, list[dict[str, Any]]]:
     """``fit`` (with walked intervals) without the effects the recordings pin at their null
-    (:func:`~vadsim.fit.diagnosis.policy.pinned_at_null`), one at a time, each refit walked
-    again; and the review's records of the drops (``"why": "pinned at its null"``)."""
+    (:func:`~vadsim.fit.diagnosis.policy.pinned_at_null`), one at a time, each refit's
+    intervals searched again (``interval_search``, :attr:`Policy.interval_search`); and the
+    review's records of the drops (``"why": "pinned at its null"``)."""
     log: list[dict[str, Any]] = []
     while spent := pinned_at_null(fit):
         key = spent[0]
@@ -419,7 +421,7 @@ def drop_null_effects(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
                     "why": "pinned at its null"})
         say(f"review: {key}'s 95 % interval holds its null inside its range: absent, dropped "
             f"(held-out RMS {refit.heldout_rms:.3f} without it, {fit.heldout_rms:.3f} with)")
-        fit = with_walked_intervals(ev, refit, list(ctx.eids), say)
+        fit = with_walked_intervals(ev, refit, list(ctx.eids), say, interval_search)
     return fit, log
 
 

@@ -22,6 +22,7 @@ from vadsim.fit.candidates import (
     mount_resonance,
 )
 from vadsim.fit.diagnosis import diagnose, make_folds, none_model, predict
+from vadsim.fit.diagnosis.policy import Policy
 from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.model.change import ModelChange
 
@@ -244,6 +245,10 @@ def test_a_refinement_walks_a_curved_valley_in_rounds_and_stops_where_nothing_im
 HYDRAULIC = ("hydraulic_force[anvil]", {"f_ref": 64.0, "n": 2.0})
 FRICTION = ("anvil_friction", {"force": 100.0})
 TRIED = ["hydraulic_force", "anvil_friction", "contact_law"]
+NO_NEW_INTERVAL_RUNS = Policy(interval_search="search")
+"""For the tests that read no interval: the walk and the profile run hundreds of points
+(tests/python/fit/test_interval_*.py test them; the hydraulic diagnosis and the widening
+tests run them in a diagnosis)."""
 
 
 def _truth(*effects):
@@ -714,7 +719,7 @@ def test_two_effects_at_once_are_both_named():
     friction on top). Without the review (test_review.py tests it)."""
     camp = synthetic_campaign("7in-cde", FLOWS, change=_truth(HYDRAULIC, FRICTION), seed=15,
                               **SMALL)
-    d = _diagnose(camp, candidates=TRIED, review=False)
+    d = _diagnose(camp, candidates=TRIED, review=False, policy=NO_NEW_INTERVAL_RUNS)
     assert set(d.missing_physics) == {"hydraulic_force", "anvil_friction"}, d.summary()
     assert d.verdict == "explained"
     js = d.as_json()
@@ -732,7 +737,8 @@ def test_a_pair_step_names_two_effects_no_single_one_explains():
     camp = synthetic_campaign("7in-cde", FLOWS, change=_truth(HYDRAULIC, FRICTION), seed=15,
                               **SMALL)
     d = _diagnose(camp, candidates=["hydraulic_force[anvil]", "anvil_friction",
-                                    "string_radiation"], screen_top=1, min_reduction=0.85)
+                                    "string_radiation"], screen_top=1, min_reduction=0.85,
+                  policy=NO_NEW_INTERVAL_RUNS)
     assert d.steps[0][0].heldout_rms > 0.15 * d.none_fit.heldout_rms, d.summary()
     assert len(d.steps) == 2 and all(len(f.keys) == 2 for f in d.steps[1])
     assert set(d.missing_physics) == {"hydraulic_force", "anvil_friction"}, d.summary()
@@ -754,7 +760,8 @@ def test_an_excitation_amplitude_drift_with_flow_is_named():
     offered as the competitor."""
     truth = ("excitation_amplitude", {"factor": 1.0, "p": 0.8})
     camp = synthetic_campaign("7in-cde", FLOWS, change=_truth(truth), seed=16, **SMALL)
-    d = _diagnose(camp, candidates=["excitation_amplitude", "hydraulic_force"])
+    d = _diagnose(camp, candidates=["excitation_amplitude", "hydraulic_force"],
+                  policy=NO_NEW_INTERVAL_RUNS)
     assert d.missing_physics == ["excitation_amplitude"], d.summary()
     assert d.verdict == "explained"
     assert d.chosen.values["p"] == pytest.approx(0.8, abs=0.25)
@@ -778,9 +785,11 @@ def test_cli_json_has_the_promised_keys(tmp_path, capsys, hydraulic_campaign):
     folder = save_campaign(hydraulic_campaign, tmp_path / "camp")
     rc = main(["diagnose", str(folder), "--json", "--candidates", "hydraulic_force",
                "--cycles", str(SMALL["cycles"]), "--analyse", str(SMALL["analyse_cycles"]),
-               "--phases", "2", "--out", str(tmp_path / "report"), "--quiet"])
+               "--phases", "2", "--out", str(tmp_path / "report"), "--quiet",
+               "--intervals", "search"])
     assert rc == 0
     js = json.loads(capsys.readouterr().out)
+    assert js["interval_search"] == "search"
     for key in ("verdict", "missing_physics", "parameters", "intervals", "nuisance", "located",
                 "heldout_error_before", "heldout_error_after", "ranking", "steps",
                 "operating_point"):

@@ -12,7 +12,7 @@ from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.diagnosis import diagnose, search
 from vadsim.fit.diagnosis import selection as dmod
 from vadsim.fit.diagnosis.hypotheses import siblings, without
-from vadsim.fit.diagnosis.policy import pinned_at_null
+from vadsim.fit.diagnosis.policy import Policy, pinned_at_null
 from vadsim.fit.hypothesis import Hypothesis
 from vadsim.fit.hypothesis_fit import HypothesisFit
 from vadsim.fit.nuisance import DEFAULT_NUISANCE
@@ -21,7 +21,9 @@ from vadsim.model.change import ModelChange
 FLOWS = (200.0, 300.0, 400.0, 500.0, 600.0, 650.0)
 SMALL = dict(cycles=160, analyse_cycles=100, duration_s=3.0, noise_g=0.3)
 RUN = dict(cycles=SMALL["cycles"], analyse_cycles=SMALL["analyse_cycles"], phases=2,
-           progress=False)
+           progress=False, policy=Policy(interval_search="search"))
+"""No new runs for the intervals: these tests read none (the walk and the profile run
+hundreds of points; tests/python/fit/test_interval_*.py test them)."""
 
 
 def _truth(key: str, values: dict[str, float]) -> ModelChange:
@@ -234,7 +236,6 @@ def test_a_remainder_no_candidate_passes_against_leaves_the_model_as_it_was(monk
     """Candidates fitted for a remainder that do not pass against the final model (the
     usual thresholds) change nothing; every candidate a step fitted fully, or that the model
     holds, is not fitted again."""
-    from vadsim.fit.diagnosis.policy import Policy
     from vadsim.fit.scoring import aicc
 
     away = {"contact_stiffness[on_bottom]": (1.3,), "excitation_amplitude": (1.25, 0.2)}
