@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from vadsim.fit.candidates import CANDIDATES
 from vadsim.fit.hypothesis import Hypothesis
-from vadsim.fit.interval_profile import profile_intervals
+from vadsim.fit.interval_profile import profile_intervals, ridge_cost
 from vadsim.fit.interval_walk import walk_intervals
 from vadsim.fit.intervals import profile_limit
 
@@ -25,11 +25,12 @@ so each alone is pinned to a hundredth of the box while its profile spans a tent
 
 
 class Valley:
-    """Nine events share ``d' M d`` around the optimum; the tenth lands on another response
-    (5,000 spreads) where the first coordinate lies in ``band``."""
+    """Nine events share ``d' M d`` around the optimum; the tenth (and the ninth, with
+    ``flipping=2``) lands on another response (5,000 spreads) where the first coordinate lies
+    in ``band``."""
 
-    def __init__(self, band: tuple[float, float] = (2.0, 3.0)) -> None:
-        self.hyp, self.band, self.asked = HYP, band, 0
+    def __init__(self, band: tuple[float, float] = (2.0, 3.0), flipping: int = 1) -> None:
+        self.hyp, self.band, self.asked, self.flipping = HYP, band, 0, flipping
 
     def event_rss(self, points) -> np.ndarray:
         self.asked += len(points)
@@ -40,6 +41,8 @@ class Valley:
             smooth = FLOOR + float(d @ M @ d) / 9.0
             flip = 5000.0 if self.band[0] < u[0] < self.band[1] else FLOOR
             rows.append([smooth] * 9 + [flip])
+            if self.flipping == 2:
+                rows[-1][8] = flip
         return np.array(rows)
 
     def rss(self, point) -> float:
@@ -96,6 +99,23 @@ def test_the_profile_crosses_a_flipped_event_to_the_island_beyond_it():
     # the band itself is outside the threshold on the true cost
     inside_band = HYP.from_unit([0.54, 0.5 + 0.04 * 0.99])
     assert costs.rss(inside_band) > LIMIT
+
+
+def test_a_point_one_flipped_event_from_the_islands_stands_for_them_two_do_not():
+    """A band of one flipped event running past the profile's end: its points count with
+    that event at its cap (ridge_cost), so the interval reaches into the band, never past
+    the profile of the smooth events; with two events flipped it stays on the first island."""
+    band = (0.53, 0.7)
+    one = profile_intervals(Valley(band), BEST, _slice_walk(Valley(band)), 10.0, EVENTS)
+    assert band[0] < _unit_interval(one, 0)[1] <= OPTIMUM[0] + _exact_half_widths()[0] + 1e-3
+    two = profile_intervals(Valley(band, flipping=2), BEST, _slice_walk(Valley(band)), 10.0,
+                            EVENTS)
+    assert _unit_interval(two, 0)[1] < band[0]
+    caps = np.full(EVENTS, 3.0)
+    flipped = np.array([1.0] * 9 + [5000.0])
+    assert ridge_cost(flipped, caps) == 12.0
+    assert ridge_cost(np.array([1.0] * 9 + [29.0]), caps) == 38.0  # a smooth misfit counts
+    assert ridge_cost(np.array([1.0] * 8 + [5000.0] * 2), caps) == 10008.0
 
 
 def test_a_coordinate_alone_is_its_own_profile():
