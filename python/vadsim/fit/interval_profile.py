@@ -35,7 +35,7 @@ from scipy import optimize
 from vadsim.fit.interval_walk import hull_of_points
 from vadsim.fit.intervals import profile_limit
 from vadsim.fit.nuisance import NuisanceSpec
-from vadsim.fit.stages import ISLAND_CAP, CappedCosts
+from vadsim.fit.stages import CappedCosts
 
 if TYPE_CHECKING:
     from vadsim.fit.hypothesis import HypothesisCosts, Point
@@ -99,8 +99,7 @@ def profile_intervals(costs: HypothesisCosts, best: Point,
     if k < 2:
         return list(intervals)
     limit = profile_limit(best_rss, records, k)
-    per_event = costs.event_rss([best])[0]
-    capped = CappedCosts(costs, ISLAND_CAP * np.maximum(per_event, float(np.median(per_event))))
+    capped = CappedCosts.around(costs, best)
     inside: list[Point] = []
     for j, spec in enumerate(hyp.specs):
         if isinstance(spec, NuisanceSpec) and spec.periodic:
@@ -186,8 +185,7 @@ def _refit_others(capped: CappedCosts, u: np.ndarray, others: list[int], widths:
         return r
 
     x0 = u[others]
-    simplex = np.vstack([x0] + [x0 + np.eye(len(others))[i] * widths[i]
-                                for i in range(len(others))])
+    simplex = np.vstack([x0, x0 + np.diag(widths)])
     optimize.minimize(cost, x0, method="Nelder-Mead",
                       options={"initial_simplex": simplex, "maxfev": maxfev,
                                "xatol": 1e-4, "fatol": 1e-3})

@@ -232,6 +232,15 @@ class CappedCosts:
     def __init__(self, costs: HypothesisCosts, caps: np.ndarray) -> None:
         self.costs, self.hyp, self.caps = costs, costs.hyp, np.asarray(caps, dtype=float)
 
+    @classmethod
+    def around(cls, costs: HypothesisCosts, point: Point, cap: float = ISLAND_CAP
+               ) -> CappedCosts:
+        """Each event capped at ``cap`` times its cost at ``point``, or the median event's
+        where that is larger (an event fitted almost exactly may still move by a median
+        event's worth without counting as flipped)."""
+        per_event = costs.event_rss([point])[0]
+        return cls(costs, cap * np.maximum(per_event, float(np.median(per_event))))
+
     def rss(self, point: Point) -> float:
         return float(np.minimum(self.costs.event_rss([point])[0], self.caps).sum())
 
@@ -251,7 +260,5 @@ def capped_refine(costs: HypothesisCosts, start: Point, maxfev: int,
     capped at 3 times each event's, Nelder-Mead walked to a point costing 17.0 (the truth
     17.1): across the ridges the other nine events' cost led it."""
     every = range(len(costs.hyp.specs))
-    per_event = costs.event_rss([start])[0]
-    caps = cap * np.maximum(per_event, float(np.median(per_event)))
-    _, point = refine(CappedCosts(costs, caps), start, every, maxfev)
+    _, point = refine(CappedCosts.around(costs, start, cap), start, every, maxfev)
     return refine(costs, point, every, maxfev // 4 or 1)
