@@ -294,20 +294,34 @@ ISLAND_MAXFEV_PER_COORD = 40
 capped cost (measured on blind-11: 150 for its 3 coordinates reached the truth's island)."""
 
 
+ISLAND_MIN_GAIN = 0.05
+"""Fraction of the training cost the walk of :func:`island_hop` must save before the model is
+refitted from its end. The benchmark's regret noise is ``2 sqrt(2 / n)`` of a right model's
+cost at ``n`` residuals (0.12-0.28 at 100-600 residuals), and the islands it crossed to
+were 40-60 % lower (blind-05 32.4 -> 17.8, blind-11 45.3 -> 17.0); a walk that saves a few
+per cent (measured: 6.2 -> 6.2 and 4.6 -> 4.4 on the test suite's campaigns) only moved
+within the island, and its refit cost 6-10 s for nothing."""
+
+
 def island_hop(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
                fit: HypothesisFit, say: Callable[[str], None]) -> HypothesisFit:
     """The model to report, moved to a better island of its cost where there is one: a walk
     on the cost with each event capped (:func:`~vadsim.fit.stages.capped_refine`) from its
-    optimum, and, where the true cost there is lower, the model refitted from that point
-    (:func:`refit_stages`) and kept where its training cost is lower than ``fit``'s; else
-    ``fit`` as it was."""
+    optimum, and, where the true cost there is at least :data:`ISLAND_MIN_GAIN` lower, the
+    model refitted from that point (:func:`refit_stages`) and kept where its training cost
+    is lower than ``fit``'s; else ``fit`` as it was.
+
+    Why not only where the model lies beyond its own noise band: the band bounds the cost's
+    level, the regret its difference to the truth's, which is far smaller. Measured on the
+    README's campaign: the chosen model at RMS z 0.13 against a band edge of 3.1; blind-11's
+    wrong island cost RMS z 0.28 (45.3 at 585 residuals), the truth's 0.17."""
     hyp = fit.hypothesis
     if not hyp.specs:
         return fit
     costs = HypothesisCosts(ev, hyp, list(ctx.eids))
     rss, point = capped_refine(costs, fit.point, ISLAND_MAXFEV_PER_COORD * len(hyp.specs))
-    if not rss < fit.rss:
-        say(f"{fit.key}: no better island across the events' ridges ({rss:.1f} >= "
+    if not rss < (1.0 - ISLAND_MIN_GAIN) * fit.rss:
+        say(f"{fit.key}: no better island across the events' ridges ({rss:.1f} against "
             f"{fit.rss:.1f})")
         return fit
     say(f"{fit.key}: a better island across the events' ridges (training cost {rss:.1f} < "
