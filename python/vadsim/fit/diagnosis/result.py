@@ -90,9 +90,12 @@ class Diagnosis:
 
     @property
     def policy(self) -> Policy:
-        """The thresholds this result was decided with (from :attr:`settings`)."""
+        """The thresholds this result was decided with (from :attr:`settings`). A result
+        recorded before ``interval_search`` was a setting had its intervals walked
+        (``"walk"``), whatever today's default."""
         names = Policy.__dataclass_fields__
-        return Policy(**{k: v for k, v in self.settings.items() if k in names})
+        given = {k: v for k, v in self.settings.items() if k in names}
+        return Policy(**{"interval_search": "walk", **given})
 
     @property
     def none_fit(self) -> HypothesisFit:
@@ -134,7 +137,7 @@ class Diagnosis:
             "intervals": {i: {k: list(v) for k, v in d.items()} for i, d in cand_iv.items()},
             "nuisance": {k: {"value": v, "interval": list(nuis_iv.get(k, (v, v)))}
                          for k, v in nuisance.items()},
-            "interval_search": self.settings.get("interval_search", "walk"),
+            "interval_search": self.policy.interval_search,
             "unexplained": self.unexplained,
             "located": [m.as_dict() for m in self.located],
             "located_events": self.located_events,

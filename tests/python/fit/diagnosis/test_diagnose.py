@@ -658,6 +658,18 @@ def test_a_diagnosis_shows_its_verdict_and_ranking_in_a_notebook(hydraulic_diagn
 
 
 @pytest.mark.slow
+def test_the_interval_search_a_result_records_is_the_one_it_reports(hydraulic_diagnosis):
+    """The policy a result rebuilds and its JSON name the same interval search: the one it
+    ran with, and for a result recorded before the setting existed, the walk it ran."""
+    d = hydraulic_diagnosis
+    assert d.policy.interval_search == d.as_json()["interval_search"] == "profile"
+    older = dataclasses.replace(d, settings={k: v for k, v in d.settings.items()
+                                             if k != "interval_search"})
+    assert older.policy.interval_search == older.as_json()["interval_search"] == "walk"
+    assert older.policy.min_delta == d.policy.min_delta  # the rest as recorded
+
+
+@pytest.mark.slow
 def test_fitted_physics_predicts_another_campaign_without_refitting(hydraulic_diagnosis):
     other = synthetic_campaign("7in-cde", (450.0, 550.0, 620.0), change=_truth(HYDRAULIC),
                                seed=13, **SMALL)
