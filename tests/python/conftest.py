@@ -11,6 +11,7 @@ subfolder imports the helpers next to this file (``from _children import ...``).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -26,6 +27,16 @@ TINY_RUN = dict(cycles=20, analyse_cycles=10)
 def repository() -> Path:
     """The repository's root (docs, bench, README), wherever a test file sits."""
     return REPOSITORY
+
+
+@pytest.fixture(scope="session")
+def run_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The result cache the tests that diagnose one campaign the same way share: the test
+    run's own (``$VADSIM_CACHE``, which ``.ci/test`` sets for the README, the gallery and the
+    tests), else a folder of this test process. A diagnosis is a function of its inputs,
+    so the second one reads every run of the first instead of computing it again."""
+    folder = os.environ.get("VADSIM_CACHE", "")
+    return Path(folder) if folder else tmp_path_factory.mktemp("run-cache")
 
 
 @pytest.fixture(scope="session")

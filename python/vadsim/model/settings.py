@@ -134,6 +134,12 @@ class RunSettings:
         if not isinstance(self.extras, Sequence) or isinstance(self.extras, (str, bytes)):
             raise ValueError(f"extras = {shown(self.extras)} must be a sequence of extra forces")
         object.__setattr__(self, "extras", tuple(ExtraSpec.coerce(e) for e in self.extras))
+        # 160 and 160.0 cycles are one run, so one cache key: the command line reads floats,
+        # and its diagnosis then reads the runs the same diagnosis from Python made
+        for name in ("cycles", "analyse_cycles"):
+            value = getattr(self, name)
+            if isinstance(value, int) and not isinstance(value, bool):
+                object.__setattr__(self, name, float(value))
 
     def with_changes(self, **changes: Any) -> RunSettings:
         """A copy with fields replaced; ``overrides`` given here are merged into the current

@@ -37,6 +37,17 @@ def test_canonical_is_exact_and_independent_of_order():
         canonical(lambda x: x)
 
 
+def test_a_run_length_given_as_an_integer_or_a_float_is_one_key(tmp_path):
+    """160 and 160.0 cycles are the same run: the command line reads floats, Python callers
+    write integers, and the second diagnosis of a campaign must read the first one's runs."""
+    c = ResultCache(tmp_path)
+    as_int = RunSettings("7in-cde", cycles=160, analyse_cycles=100)
+    as_float = RunSettings("7in-cde", cycles=160.0, analyse_cycles=100.0)
+    assert as_int == as_float and isinstance(as_int.cycles, float)
+    assert c.key("run", as_int) == c.key("run", as_float)
+    assert c.key("run", as_int) != c.key("run", RunSettings("7in-cde", cycles=161))
+
+
 def test_a_stored_value_comes_back_and_another_input_or_code_misses(tmp_path, monkeypatch):
     store = ResultCache(tmp_path / "c")
     key = store.key("run", {"flow": 200.0})

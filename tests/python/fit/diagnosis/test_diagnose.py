@@ -591,9 +591,16 @@ def hydraulic_campaign():
     return synthetic_campaign("7in-cde", FLOWS, change=_truth(HYDRAULIC), seed=11, **SMALL)
 
 
+README_CANDIDATES = ["hydraulic_force", "anvil_friction"]
+"""The README's diagnosis tries these on the same campaign (:func:`hydraulic_campaign`): with
+the test run's cache, the README, :func:`hydraulic_diagnosis` and the CLI's test compute its
+runs once."""
+
+
 @pytest.fixture(scope="module")
-def hydraulic_diagnosis(hydraulic_campaign):
-    return _diagnose(hydraulic_campaign, candidates=TRIED)
+def hydraulic_diagnosis(hydraulic_campaign, run_cache):
+    """The README's diagnosis of a concealed hydraulic force (every interval profiled)."""
+    return _diagnose(hydraulic_campaign, candidates=README_CANDIDATES, cache=run_cache)
 
 
 @pytest.mark.slow
@@ -793,15 +800,22 @@ def test_a_mismatch_no_candidate_explains_is_unexplained_not_none(hydraulic_camp
 
 
 @pytest.mark.slow
-def test_cli_json_has_the_promised_keys(tmp_path, capsys, hydraulic_campaign):
+def test_cli_json_has_the_promised_keys(tmp_path, capsys, hydraulic_campaign,
+                                        hydraulic_diagnosis, run_cache):
+    """The command line's diagnosis of the saved campaign is the Python call's, to the digit
+    (and reads the runs that call made from the shared cache)."""
     folder = save_campaign(hydraulic_campaign, tmp_path / "camp")
-    rc = main(["diagnose", str(folder), "--json", "--candidates", "hydraulic_force",
+    rc = main(["diagnose", str(folder), "--json", "--candidates", *README_CANDIDATES,
                "--cycles", str(SMALL["cycles"]), "--analyse", str(SMALL["analyse_cycles"]),
                "--phases", "2", "--out", str(tmp_path / "report"), "--quiet",
-               "--intervals", "search"])
+               "--intervals", "profile", "--cache", str(run_cache)])
     assert rc == 0
     js = json.loads(capsys.readouterr().out)
-    assert js["interval_search"] == "search"
+    assert js["interval_search"] == "profile"
+    py = hydraulic_diagnosis.as_json()
+    for key in ("verdict", "missing_physics", "parameters", "intervals", "nuisance",
+                "heldout_error_before", "heldout_error_after"):
+        assert js[key] == py[key], key
     for key in ("verdict", "missing_physics", "parameters", "intervals", "nuisance", "located",
                 "heldout_error_before", "heldout_error_after", "ranking", "steps",
                 "operating_point"):
@@ -816,6 +830,29 @@ def test_cli_json_has_the_promised_keys(tmp_path, capsys, hydraulic_campaign):
     assert (tmp_path / "report" / "heldout_features.png").is_file()
     text = (tmp_path / "report" / "diagnosis.md").read_text()
     assert "Nuisance constants" in text and "wob_scale" in text
+
+
+def test_cli_passes_its_interval_search_and_thresholds_to_the_diagnosis(monkeypatch, tmp_path):
+    """What the command line asks for is what the diagnosis runs with (without running it)."""
+    import vadsim.fit.diagnosis.pipeline as pipeline
+
+    class Stop(Exception):
+        pass
+
+    seen = {}
+
+    def fake(campaign, **kw):
+        seen.update(kw)
+        raise Stop
+
+    monkeypatch.setattr(pipeline, "diagnose", fake)
+    with pytest.raises(Stop):
+        main(["diagnose", "thesis:7in-cde", "--intervals", "search", "--noise-draws", "0",
+              "--min-reduction", "0.4", "--no-review", "--candidates", "mass", "--quiet",
+              "--out", str(tmp_path / "report")])
+    assert seen["policy"] == Policy(noise_draws=0, interval_search="search")
+    assert seen["min_reduction"] == 0.4 and seen["review"] is False
+    assert seen["candidates"] == ["mass"]
 
 
 def test_cli_names_a_bad_nuisance(capsys):
