@@ -14,7 +14,7 @@ returns a :class:`HypothesisFit`:
 * **interval** (:mod:`vadsim.fit.intervals`): per parameter, the wider of a 95 % profile
   interval from every point evaluated on all events and a delete-one-flow jackknife interval
   from the leave-one-flow-out folds' refits; a model that is reported has its intervals
-  walked out from its optimum and along its profile too (:func:`with_walked_intervals`);
+  walked out from its optimum and along its profile too (:func:`with_searched_intervals`);
 * **held-out score** (:mod:`vadsim.fit.scoring`): each fold refitted among the points
   evaluated on every event and its held-out events predicted at the *predictive* cost; the
   error is the RMS standardised residual pooled over all held-out predictions, and the score
@@ -44,7 +44,7 @@ from vadsim.fit.scoring import aicc, events_cost, is_block_fold, score_folds
 from vadsim.fit.stages import Stage, run_stages
 
 __all__ = ["AT_BOUND", "TOP_POINTS", "HypothesisFit", "fit_hypothesis",
-           "with_walked_intervals"]
+           "with_searched_intervals"]
 
 TOP_POINTS = 3
 """How many of the best points a fit keeps as starts for a finer fit."""
@@ -263,10 +263,11 @@ def fit_hypothesis(ev: CampaignEvaluator, hyp: Hypothesis, start: Point,
     return fit
 
 
-def with_walked_intervals(ev: CampaignEvaluator, fit: HypothesisFit, eids: list[str],
-                          progress: Callable[[str], None] = lambda _m: None,
-                          search: str = "profile") -> HypothesisFit:
-    """``fit`` with its intervals widened by walking the cost out from its optimum on every
+def with_searched_intervals(ev: CampaignEvaluator, fit: HypothesisFit, eids: list[str],
+                            progress: Callable[[str], None] = lambda _m: None,
+                            search: str = "profile") -> HypothesisFit:
+    """``fit`` with its intervals searched with new runs, as ``search`` (the policy's
+    ``interval_search``) says: widened by walking the cost out from its optimum on every
     event (:func:`vadsim.fit.interval_walk.walk_intervals`) and, with ``search="profile"``,
     by following its profile across islands
     (:func:`vadsim.fit.interval_profile.profile_intervals`); ``search="search"`` returns

@@ -47,7 +47,11 @@ from vadsim.fit.diagnosis.policy import (
 )
 from vadsim.fit.diagnosis.result import Diagnosis, jsonable
 from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
-from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis, with_walked_intervals
+from vadsim.fit.hypothesis_fit import (
+    HypothesisFit,
+    fit_hypothesis,
+    with_searched_intervals,
+)
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
 from vadsim.model.cache import ResultCache, default_cache
 from vadsim.model.presets import Preset
@@ -198,18 +202,18 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     """The chosen model after the review (:func:`~vadsim.fit.diagnosis.selection.review`,
     if asked) and over the ranges it asks for
     (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`), the calibrated base model, the
-    review's records and the widenings. The reported model's intervals are walked out from
-    its optimum (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`): the chosen
+    review's records and the widenings. The reported model's intervals are searched as the
+    policy says (:func:`~vadsim.fit.hypothesis_fit.with_searched_intervals`): the chosen
     model's, or where nothing is chosen the base model's (its constants are reported with
     "none"), each first moved to a better island of its cost where there is one
     (:func:`~vadsim.fit.diagnosis.hypotheses.island_hop`). An effect of two or more whose
-    walked intervals hold its null is then dropped
+    searched intervals hold its null is then dropped
     (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`)."""
     chosen, reviewed = (selection.review(ctx, ev, coarse_ev, sel, keys, pol, say)
                         if review else (sel.chosen, []))
     if chosen is None:
         hopped = island_hop(ctx, ev, coarse_ev, base, say)
-        return (None, with_walked_intervals(ev, hopped, list(ctx.eids), say,
+        return (None, with_searched_intervals(ev, hopped, list(ctx.eids), say,
                                             pol.interval_search), reviewed, [])
     chosen, dropped, widened = _settled(ctx, ev, coarse_ev, sel, chosen, say,
                                         pol.interval_search)
@@ -282,15 +286,15 @@ def _settled(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     (:func:`~vadsim.fit.diagnosis.hypotheses.refit_widening`), moved to a better island of
     its cost where there is one (:func:`~vadsim.fit.diagnosis.hypotheses.island_hop`), its
     intervals searched as ``interval_search`` says
-    (:func:`~vadsim.fit.hypothesis_fit.with_walked_intervals`) and the
+    (:func:`~vadsim.fit.hypothesis_fit.with_searched_intervals`) and the
     effects pinned at their null dropped
     (:func:`~vadsim.fit.diagnosis.selection.drop_null_effects`); with the drops and the
     widenings."""
     chosen, widened = refit_widening(ctx, ev, coarse_ev, chosen, say)
     chosen = island_hop(ctx, ev, coarse_ev, chosen, say)
     chosen, dropped = selection.drop_null_effects(
-        ctx, ev, coarse_ev, with_walked_intervals(ev, chosen, list(ctx.eids), say,
-                                                  interval_search), sel, say, interval_search)
+        ctx, ev, coarse_ev, with_searched_intervals(ev, chosen, list(ctx.eids), say,
+                                                    interval_search), sel, say, interval_search)
     return chosen, dropped, widened
 
 

@@ -36,7 +36,7 @@ from vadsim.fit.diagnosis.policy import (
     vanishes,
     vanishes_in_folds,
 )
-from vadsim.fit.hypothesis_fit import HypothesisFit, with_walked_intervals
+from vadsim.fit.hypothesis_fit import HypothesisFit, with_searched_intervals
 from vadsim.fit.scoring import aicc
 
 __all__ = ["EARLY_PAIR_CUT", "Selection", "drop_null_effects", "early_pair_promising",
@@ -421,7 +421,7 @@ def drop_null_effects(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEv
                     "why": "pinned at its null"})
         say(f"review: {key}'s 95 % interval holds its null inside its range: absent, dropped "
             f"(held-out RMS {refit.heldout_rms:.3f} without it, {fit.heldout_rms:.3f} with)")
-        fit = with_walked_intervals(ev, refit, list(ctx.eids), say, interval_search)
+        fit = with_searched_intervals(ev, refit, list(ctx.eids), say, interval_search)
     return fit, log
 
 
