@@ -47,11 +47,7 @@ from vadsim.fit.diagnosis.policy import (
 )
 from vadsim.fit.diagnosis.result import Diagnosis, jsonable
 from vadsim.fit.hypothesis import Hypothesis, HypothesisCosts
-from vadsim.fit.hypothesis_fit import (
-    HypothesisFit,
-    fit_hypothesis,
-    with_searched_intervals,
-)
+from vadsim.fit.hypothesis_fit import HypothesisFit, fit_hypothesis, with_searched_intervals
 from vadsim.fit.nuisance import DEFAULT_NUISANCE, NuisanceSpec, parse_nuisance, resolve_nuisance
 from vadsim.model.cache import ResultCache, default_cache
 from vadsim.model.presets import Preset
@@ -214,7 +210,7 @@ def _reviewed(ctx: Context, ev: CampaignEvaluator, coarse_ev: CampaignEvaluator,
     if chosen is None:
         hopped = island_hop(ctx, ev, coarse_ev, base, say)
         return (None, with_searched_intervals(ev, hopped, list(ctx.eids), say,
-                                            pol.interval_search), reviewed, [])
+                                              pol.interval_search), reviewed, [])
     chosen, dropped, widened = _settled(ctx, ev, coarse_ev, sel, chosen, say,
                                         pol.interval_search)
     return chosen, base, [*reviewed, *dropped], widened
